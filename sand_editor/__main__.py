@@ -1,0 +1,3 @@
+from sand_editor.cli import main
+
+raise SystemExit(main())
