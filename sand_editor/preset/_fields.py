@@ -1,0 +1,295 @@
+"""The table of preset fields: one row per field drives validation, defaults, docs and sliders."""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from sand_editor.preset._checks import (
+    check_integer,
+    check_number,
+    describe,
+    format_number,
+    type_name,
+)
+from sand_editor.preset._color import Color
+from sand_editor.preset._errors import PresetError
+
+Kind = Literal["float", "int", "color", "colors", "weights", "text"]
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """Description of one preset field.
+
+    Parameters
+    ----------
+    path
+        Dotted path, ``"generation.threshold"``; top-level fields have no dot.
+    kind
+        ``"float"``, ``"int"``, ``"color"``, ``"colors"`` (fixed-length list of colours),
+        ``"weights"`` (fixed-length list of numbers) or ``"text"``.
+    minimum, maximum
+        Allowed range of the value (of each element for lists, of the length for text).
+    default
+        Value a new preset has, and a file that omits the field gets.
+    label
+        Short name for a control in the editor.
+    doc
+        One line saying what the field does.
+    unit
+        Unit for display (``"m"``, ``"1/m"``), empty when the value has none.
+    regenerates
+        True when changing the field needs new textures; False when it is a shader uniform.
+    count
+        Number of elements for ``"colors"`` and ``"weights"``.
+    odd
+        Only odd integers are allowed.
+    multiline
+        Text may contain line breaks and tabs.
+    """
+
+    path: str
+    kind: Kind
+    minimum: float
+    maximum: float
+    default: Any
+    label: str
+    doc: str
+    unit: str = ""
+    regenerates: bool = False
+    count: int = 0
+    odd: bool = False
+    multiline: bool = False
+
+    @property
+    def section(self) -> str:
+        """``"generation"``, ``"shading"`` or ``""`` for top-level fields."""
+        return self.path.rpartition(".")[0]
+
+    @property
+    def name(self) -> str:
+        """Field name within its section."""
+        return self.path.rpartition(".")[2]
+
+    def check(self, value: Any) -> Any:
+        """Return ``value`` in its canonical Python form, or raise PresetError naming the path.
+
+        Colours may be given as :class:`Color` or ``"#rrggbb"``; lists as lists or tuples.
+        """
+        return _CHECKS[self.kind](self, value)
+
+    def to_json(self, value: Any) -> Any:
+        """Return the JSON form of a checked value."""
+        return _TO_JSON[self.kind](value)
+
+
+def _check_float(spec: FieldSpec, value: Any) -> float:
+    return check_number(value, spec.path, spec.minimum, spec.maximum)
+
+
+def _check_int(spec: FieldSpec, value: Any) -> int:
+    number = check_integer(value, spec.path, int(spec.minimum), int(spec.maximum))
+    if spec.odd and number % 2 == 0:
+        raise PresetError(
+            f"{number} is even; allowed odd integers from "
+            f"{format_number(spec.minimum)} to {format_number(spec.maximum)}",
+            path=spec.path,
+        )
+    return number
+
+
+def _to_color(value: Any, path: str) -> Color:
+    if isinstance(value, Color):
+        return value
+    try:
+        return Color.from_hex(value)
+    except PresetError as error:
+        raise error.located(parent=path) from None
+
+
+def _check_color(spec: FieldSpec, value: Any) -> Color:
+    return _to_color(value, spec.path)
+
+
+def _elements(spec: FieldSpec, value: Any, what: str) -> tuple[Any, ...]:
+    if not isinstance(value, (list, tuple)):
+        raise PresetError(
+            f"{describe(value)} is {type_name(value)}; allowed an array of {spec.count} {what}",
+            path=spec.path,
+        )
+    if len(value) != spec.count:
+        raise PresetError(
+            f"has {len(value)} entries; allowed exactly {spec.count} {what}", path=spec.path
+        )
+    return tuple(value)
+
+
+def _check_colors(spec: FieldSpec, value: Any) -> tuple[Color, ...]:
+    return tuple(
+        _to_color(item, f"{spec.path}[{index}]")
+        for index, item in enumerate(_elements(spec, value, "'#rrggbb' colours"))
+    )
+
+
+def _check_weights(spec: FieldSpec, value: Any) -> tuple[float, ...]:
+    weights = tuple(
+        check_number(item, f"{spec.path}[{index}]", spec.minimum, spec.maximum)
+        for index, item in enumerate(_elements(spec, value, "numbers"))
+    )
+    # The weights are relative chances, so only an all-zero set has no meaning.
+    if sum(weights) <= 0:
+        raise PresetError(
+            "all weights are 0; allowed weights from 0 to 100 with at least one above 0",
+            path=spec.path,
+        )
+    return weights
+
+
+def _check_text(spec: FieldSpec, value: Any) -> str:
+    if not isinstance(value, str):
+        raise PresetError(
+            f"{describe(value)} is {type_name(value)}; allowed a string", path=spec.path
+        )
+    if not spec.minimum <= len(value) <= spec.maximum:
+        raise PresetError(
+            f"is {len(value)} characters long; allowed {format_number(spec.minimum)} to "
+            f"{format_number(spec.maximum)}",
+            path=spec.path,
+        )
+    allowed_controls = "\n\t" if spec.multiline else ""
+    bad = next((c for c in value if not c.isprintable() and c not in allowed_controls), None)
+    if bad is not None:
+        kind = "printable characters and line breaks" if spec.multiline else "printable characters"
+        raise PresetError(f"contains {bad!r}; allowed {kind} only", path=spec.path)
+    return value
+
+
+def _weight_to_json(weight: float) -> float | int:
+    # Whole-number weights are written as 22 rather than 22.0, as people type them.
+    return int(weight) if weight.is_integer() else weight
+
+
+_CHECKS: dict[str, Callable[[FieldSpec, Any], Any]] = {
+    "float": _check_float,
+    "int": _check_int,
+    "color": _check_color,
+    "colors": _check_colors,
+    "weights": _check_weights,
+    "text": _check_text,
+}
+
+_TO_JSON: dict[str, Callable[[Any], Any]] = {
+    "float": float,
+    "int": int,
+    "color": lambda color: color.hex,
+    "colors": lambda colors: [color.hex for color in colors],
+    "weights": lambda weights: [_weight_to_json(weight) for weight in weights],
+    "text": str,
+}
+
+
+def _generation(name: str, *spec: Any, **extra: Any) -> FieldSpec:
+    # Generation fields feed the texture generator, so any change means new textures.
+    return FieldSpec(f"generation.{name}", *spec, regenerates=True, **extra)
+
+
+def _shading(name: str, *spec: Any, **extra: Any) -> FieldSpec:
+    return FieldSpec(f"shading.{name}", *spec, **extra)
+
+
+_hex = Color.from_hex
+
+# Defaults are the reference's saved material "SandTexturesGeneration" and its preview material.
+FIELDS: tuple[FieldSpec, ...] = (
+    FieldSpec("name", "text", 1, 80, "paper-default", "Name",
+              "Short name of the preset, one line."),
+    FieldSpec("description", "text", 0, 2000, "", "Description",
+              "What sand the preset is.", multiline=True),
+    _generation("layers", "int", 0, 15, 10, "Layers",
+                "Number of grain layers; lower layers only fill gaps left by higher ones."),
+    _generation("threshold", "float", 0.0, 1.0, 0.296, "Threshold",
+                "Spacing between grains; higher values need more layers to fill the gaps."),
+    _generation("roundness", "float", 0.0, 1.0, 0.28, "Roundness",
+                "Trims each grain to a disc around its centre; higher is smaller, rounder."),
+    _generation("seed", "int", 0, 2**32 - 1, 270, "Seed",
+                "Picks a different arrangement of grains and colours."),
+    _generation("base_color", "color", 0, 255, _hex("#ffd7c4"), "Base colour",
+                "Colour shown in gaps that no layer fills."),
+    _generation("colors", "colors", 0, 255,
+                (_hex("#ffd7c4"), _hex("#652a0e"), _hex("#ffc4a7"), _hex("#ffd7c4")),
+                "Grain colours", "The colours a grain may take.", count=4),
+    _generation("weights", "weights", 0.0, 100.0, (22.0, 18.0, 56.0, 4.0), "Colour weights",
+                "Relative chance of each grain colour.", count=4),
+    _generation("layer_darkness", "float", 0.0, 1.0, 0.085, "Layer darkness",
+                "How much darker each deeper layer is (less light reaches it)."),
+    _generation("jitter", "float", 0.0, 1.0, 1.0, "Jitter",
+                "Fraction of a cell a grain centre may move; 0 gives a regular lattice."),
+    _generation("period", "int", 1, 256, 36, "Period",
+                "Grain cells along each side of one texture tile.", unit="cells"),
+    _shading("glint_shininess", "float", 0.1, 1000.0, 10.4, "Glint shininess",
+             "Phong exponent of a grain's highlight; higher is a smaller, sharper glint."),
+    _shading("glint_sigma", "float", 0.001, 10.0, 0.277, "Glint sigma",
+             "Width of the Gaussian over grain glint values that picks which grains sparkle."),
+    _shading("glint_mu", "float", -10.0, 10.0, 2.0, "Glint mu",
+             "Centre of that Gaussian; nearer the grain values (0 to 1) means more glints."),
+    _shading("sample_count", "int", 1, 15, 7, "Samples",
+             "Multisamples per axis of the grain normals at close range (odd).", odd=True),
+    _shading("sample_spread", "float", 0.0, 4.0, 0.305, "Sample spread",
+             "Distance between multisamples, in screen-space texture derivatives."),
+    _shading("sss", "float", 0.0, 10.0, 0.733, "Subsurface",
+             "Strength of subsurface scattering and absorption."),
+    _shading("scattering", "float", 0.0, 1.0, 0.075, "Scattering",
+             "Light scattered through grains to the side facing away from the light."),
+    _shading("absorption", "float", 0.0, 10.0, 0.1, "Absorption",
+             "Light absorbed inside the grains."),
+    _shading("fresnel_roughness", "float", 0.0, 1.0, 0.849, "Fresnel roughness",
+             "Roughness scaling the Schlick Fresnel reflection of silica."),
+    _shading("transmission", "float", 0.0, 1.0, 0.045, "Transmission",
+             "Light transmitted through the grains toward the viewer."),
+    _shading("transmission_roughness", "float", 0.0, 1.0, 0.0, "Transmission roughness",
+             "Roughness of the transmitted light."),
+    _shading("ripple_strength", "float", 0.0, 1.0, 0.053, "Ripple strength",
+             "Strength of the sand-ripple normal maps at a distance."),
+    _shading("detail_strength", "float", 0.0, 1.0, 0.046, "Detail strength",
+             "Strength of the fine detail normal map at a distance."),
+    _shading("sigmoid_a", "float", 0.01, 100.0, 2.0, "Blend sharpness",
+             "How quickly close shading gives way to far shading with distance.", unit="1/m"),
+    _shading("sigmoid_b", "float", -100.0, 1000.0, 0.0, "Blend distance",
+             "Distance at which close and far shading are mixed half and half.", unit="m"),
+    _shading("uv_scale", "float", 0.01, 10000.0, 8.0, "Texture scale",
+             "Texture tiles per metre of ground.", unit="1/m"),
+)  # fmt: skip
+
+_BY_PATH = {spec.path: spec for spec in FIELDS}
+
+
+def field_spec(path: str) -> FieldSpec:
+    """Return the spec of the field at a dotted path.
+
+    Raises
+    ------
+    PresetError
+        For an unknown path, suggesting the closest known one.
+    """
+    try:
+        return _BY_PATH[path]
+    except KeyError:
+        raise unknown_field(path, list(_BY_PATH)) from None
+
+
+def section_fields(section: str) -> tuple[FieldSpec, ...]:
+    """Specs of one section (``""`` for the top-level fields), in file order."""
+    return tuple(spec for spec in FIELDS if spec.section == section)
+
+
+def unknown_field(path: str, allowed: list[str]) -> PresetError:
+    """Error for an unknown field name, suggesting the closest allowed name."""
+    # Sections list bare names, replace() lists dotted paths: try the key both ways.
+    close = difflib.get_close_matches(path, allowed, n=1) or difflib.get_close_matches(
+        path.rpartition(".")[2], allowed, n=1
+    )
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    return PresetError(f"unknown field; {hint}allowed: {', '.join(allowed)}", path=path)
