@@ -1,0 +1,122 @@
+"""The GLSL generator: renders the grain textures with moderngl, headless or in any context."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from sand_editor.generator._textures import SandTextures
+from sand_editor.generator.noise import NoiseConstants, grain_appearance
+from sand_editor.gl import draw_fullscreen, fullscreen_program
+
+
+@dataclass
+class GpuSandTextures:
+    """Grain textures resident on the GPU, as the renderer samples them.
+
+    ``normal_height``: RGBA32F (normal xyz, height); ``layer_grain``: RG32UI (owning layer + 1,
+    0 in gaps; the grain word, from which colour and glint follow for any palette).
+    """
+
+    size: int
+    normal_height: moderngl.Texture
+    layer_grain: moderngl.Texture
+    framebuffer: moderngl.Framebuffer
+
+    def read(self, constants: NoiseConstants) -> SandTextures:
+        """Copy the textures to numpy arrays (a GPU → CPU read-back) and colour the grains."""
+        n = self.size
+        nh = np.frombuffer(self.normal_height.read(), dtype=np.float32).reshape(n, n, 4)
+        lg = np.frombuffer(self.layer_grain.read(), dtype=np.uint32).reshape(n, n, 2)
+        layer = lg[..., 0].astype(np.int8) - np.int8(1)
+        grain = lg[..., 1].copy()
+        albedo, glint = grain_appearance(constants, layer, grain)
+        return SandTextures(
+            albedo=albedo.astype(np.float32),
+            normal=np.ascontiguousarray(nh[..., :3]),
+            height=np.ascontiguousarray(nh[..., 3]),
+            glint=glint.astype(np.float32),
+            layer=layer,
+            grain_id=grain,
+        )
+
+    def release(self) -> None:
+        for obj in (self.framebuffer, self.normal_height, self.layer_grain):
+            obj.release()
+
+
+class GLGenerator:
+    """Generates grain textures in a moderngl context (compiles its program once)."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self.program = fullscreen_program(ctx, "sand_generate.frag")
+        self.hash_program = fullscreen_program(ctx, "sand_hash.frag")
+        self._hash_key = None
+        self._hash_table = None
+        self._hash_fbo = None
+
+    def _hash_texture(self, nc: NoiseConstants) -> moderngl.Texture:
+        """The per-cell hash table for this seed, period and layer count (kept while unchanged)."""
+        key = (nc.seed, nc.period, max(nc.layers, 1))
+        if key != self._hash_key:
+            if self._hash_table is not None:
+                self._hash_fbo.release()
+                self._hash_table.release()
+            shape = (nc.period, nc.period * key[2])
+            self._hash_table = self.ctx.texture(shape, 4, dtype="u4")
+            self._hash_table.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self._hash_fbo = self.ctx.framebuffer(color_attachments=[self._hash_table])
+            self._hash_fbo.use()
+            self.ctx.viewport = (0, 0, *shape)
+            self.hash_program["u_period"].value = nc.period
+            self.hash_program["u_seed"].value = nc.seed
+            draw_fullscreen(self.ctx, self.hash_program)
+            self._hash_key = key
+        return self._hash_table
+
+    def _set_uniforms(self, nc: NoiseConstants, size: int) -> None:
+        p = self.program
+        p["u_size"].value = size
+        p["u_period"].value = nc.period
+        p["u_layers"].value = nc.layers
+        p["u_hash"].value = 0
+        p["u_threshold"].value = nc.threshold
+        p["u_roundness10"].value = 10.0 * nc.roundness
+        p["u_jitter"].value = nc.jitter
+
+    def allocate(self, size: int) -> GpuSandTextures:
+        ctx = self.ctx
+        nh = ctx.texture((size, size), 4, dtype="f4")
+        lg = ctx.texture((size, size), 2, dtype="u4")
+        for tex in (nh, lg):
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        fbo = ctx.framebuffer(color_attachments=[nh, lg])
+        return GpuSandTextures(size, nh, lg, fbo)
+
+    def render(
+        self,
+        generation: NoiseConstants,
+        size: int,
+        target: GpuSandTextures | None = None,
+        rows: tuple[int, int] | None = None,
+    ) -> GpuSandTextures:
+        """Render the grain textures at size×size; returns them on the GPU.
+
+        ``rows`` (start, stop) renders only that band of rows into ``target``, so a large texture
+        can be produced in short steps that never hold the caller for long.
+        """
+        nc = generation
+        target = target if target is not None else self.allocate(size)
+        if target.size != size:
+            raise ValueError(f"target textures are {target.size}², asked for {size}²")
+        start, stop = rows if rows is not None else (0, size)
+        self._hash_texture(nc).use(location=0)
+        self._set_uniforms(nc, size)
+        target.framebuffer.use()
+        # gl_FragCoord counts from the framebuffer's origin, so a band is just a viewport.
+        self.ctx.viewport = (0, start, size, stop - start)
+        draw_fullscreen(self.ctx, self.program)
+        return target

@@ -1,0 +1,58 @@
+"""OpenGL contexts and programs: the one place that knows how to get a moderngl context."""
+
+from __future__ import annotations
+
+import threading
+
+import moderngl
+
+from sand_editor.resources import shader_source
+
+REQUIRED_GL_VERSION = 330
+_local = threading.local()
+
+
+class GLUnavailableError(RuntimeError):
+    """No OpenGL 3.3 context could be created (no EGL/GL driver on this machine)."""
+
+
+def standalone_context() -> moderngl.Context:
+    """A headless context (EGL), one per thread, created on first use.
+
+    EGL needs no display, so this works on servers and in CI (Mesa's llvmpipe).
+    """
+    ctx = getattr(_local, "ctx", None)
+    if ctx is None:
+        try:
+            ctx = moderngl.create_standalone_context(require=REQUIRED_GL_VERSION, backend="egl")
+        except Exception as exc:  # moderngl raises bare Exceptions for missing drivers
+            raise GLUnavailableError(
+                "cannot create a headless OpenGL 3.3 context through EGL: "
+                f"{exc}. On Debian install libegl1 and libgl1-mesa-dri."
+            ) from exc
+        _local.ctx = ctx
+    return ctx
+
+
+def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | None = None):
+    """Program of the fullscreen triangle and a fragment shader from ``shaders/``."""
+    source = shader_source(fragment)
+    if defines:
+        header, _, body = source.partition("\n")
+        lines = "".join(f"#define {key} {value}\n" for key, value in defines.items())
+        source = f"{header}\n{lines}{body}"
+    return ctx.program(vertex_shader=shader_source("fullscreen.vert"), fragment_shader=source)
+
+
+def draw_fullscreen(ctx: moderngl.Context, program) -> None:
+    vao = _fullscreen_vao(ctx, program)
+    vao.render(moderngl.TRIANGLES, vertices=3)
+
+
+def _fullscreen_vao(ctx, program):
+    cache = ctx.extra if isinstance(ctx.extra, dict) else {}
+    ctx.extra = cache
+    key = ("fullscreen_vao", program.glo)
+    if key not in cache:
+        cache[key] = ctx.vertex_array(program, [])
+    return cache[key]
