@@ -1,0 +1,1 @@
+"""Benchmarks: our generator against a faithful port of the reference's algorithm."""
