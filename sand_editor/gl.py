@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import moderngl
 
@@ -56,3 +58,21 @@ def _fullscreen_vao(ctx, program):
     if key not in cache:
         cache[key] = ctx.vertex_array(program, [])
     return cache[key]
+
+
+@contextmanager
+def drawing_into(ctx: moderngl.Context, framebuffer: moderngl.Framebuffer) -> Iterator[None]:
+    """Bind ``framebuffer`` for a draw, then bind again whatever was bound before.
+
+    A host window keeps drawing into its own framebuffer, and releasing ours later can never
+    leave a deleted framebuffer bound.
+    """
+    previous = ctx.fbo
+    framebuffer.use()
+    try:
+        yield
+    finally:
+        if isinstance(previous, moderngl.Framebuffer):
+            previous.use()
+        else:  # nothing bound yet (a fresh headless context), or released by its owner
+            ctx.detect_framebuffer(0).use()

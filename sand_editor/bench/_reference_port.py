@@ -14,7 +14,7 @@ from typing import Any
 import moderngl
 import numpy as np
 
-from sand_editor.gl import draw_fullscreen, fullscreen_program
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
 
 _RGB = tuple[float, float, float]
 
@@ -119,9 +119,9 @@ class ReferencePort:
         self._set("u_colors", [tuple(c) for c in params.colors])
         self._set("u_weights", tuple(params.weights))
         self._set("u_keep", 0.0)
-        fbo.use()
-        fbo.viewport = (0, 0, size, size)
-        draw_fullscreen(self._ctx, self._program)
+        with drawing_into(self._ctx, fbo):
+            self._ctx.viewport = (0, 0, size, size)
+            draw_fullscreen(self._ctx, self._program)
         self._size = size
 
     def read(self) -> dict[str, np.ndarray]:

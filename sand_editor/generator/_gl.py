@@ -8,8 +8,8 @@ import moderngl
 import numpy as np
 
 from sand_editor.generator._textures import SandTextures
-from sand_editor.generator.noise import NoiseConstants, grain_appearance
-from sand_editor.gl import draw_fullscreen, fullscreen_program
+from sand_editor.generator.noise import SHADER_DEFINES, NoiseConstants, grain_appearance
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
 
 
 @dataclass
@@ -34,10 +34,10 @@ class GpuSandTextures:
         grain = lg[..., 1].copy()
         albedo, glint = grain_appearance(constants, layer, grain)
         return SandTextures(
-            albedo=albedo.astype(np.float32),
+            albedo=albedo,
             normal=np.ascontiguousarray(nh[..., :3]),
             height=np.ascontiguousarray(nh[..., 3]),
-            glint=glint.astype(np.float32),
+            glint=glint,
             layer=layer,
             grain_id=grain,
         )
@@ -52,39 +52,16 @@ class GLGenerator:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        self.program = fullscreen_program(ctx, "sand_generate.frag")
-        self.hash_program = fullscreen_program(ctx, "sand_hash.frag")
-        self._hash_key = None
-        self._hash_table = None
-        self._hash_fbo = None
-
-    def _hash_texture(self, nc: NoiseConstants) -> moderngl.Texture:
-        """The per-cell hash table for this seed, period and layer count (kept while unchanged)."""
-        key = (nc.seed, nc.period, max(nc.layers, 1))
-        if key != self._hash_key:
-            if self._hash_table is not None:
-                self._hash_fbo.release()
-                self._hash_table.release()
-            shape = (nc.period, nc.period * key[2])
-            self._hash_table = self.ctx.texture(shape, 4, dtype="u4")
-            self._hash_table.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self._hash_fbo = self.ctx.framebuffer(color_attachments=[self._hash_table])
-            self._hash_fbo.use()
-            self.ctx.viewport = (0, 0, *shape)
-            self.hash_program["u_period"].value = nc.period
-            self.hash_program["u_seed"].value = nc.seed
-            draw_fullscreen(self.ctx, self.hash_program)
-            self._hash_key = key
-        return self._hash_table
+        self.program = fullscreen_program(ctx, "sand_generate.frag", SHADER_DEFINES)
 
     def _set_uniforms(self, nc: NoiseConstants, size: int) -> None:
         p = self.program
         p["u_size"].value = size
         p["u_period"].value = nc.period
         p["u_layers"].value = nc.layers
-        p["u_hash"].value = 0
+        p["u_seed_key"].value = nc.seed_key
         p["u_threshold"].value = nc.threshold
-        p["u_roundness10"].value = 10.0 * nc.roundness
+        p["u_grain_reach2"].value = nc.grain_reach2
         p["u_jitter"].value = nc.jitter
 
     def allocate(self, size: int) -> GpuSandTextures:
@@ -113,10 +90,9 @@ class GLGenerator:
         if target.size != size:
             raise ValueError(f"target textures are {target.size}², asked for {size}²")
         start, stop = rows if rows is not None else (0, size)
-        self._hash_texture(nc).use(location=0)
         self._set_uniforms(nc, size)
-        target.framebuffer.use()
-        # gl_FragCoord counts from the framebuffer's origin, so a band is just a viewport.
-        self.ctx.viewport = (0, start, size, stop - start)
-        draw_fullscreen(self.ctx, self.program)
+        with drawing_into(self.ctx, target.framebuffer):
+            # gl_FragCoord counts from the framebuffer's origin, so a band is just a viewport.
+            self.ctx.viewport = (0, start, size, stop - start)
+            draw_fullscreen(self.ctx, self.program)
         return target

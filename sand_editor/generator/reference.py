@@ -11,11 +11,10 @@ import numpy as np
 from sand_editor.generator.noise import (
     PROFILE_OFFSET,
     PROFILE_SCALE,
-    ROUNDNESS_LIMIT,
     NoiseConstants,
     grain_appearance,
-    pcg4d,
     pixel_cells,
+    point_words,
     unpack_points,
 )
 
@@ -25,7 +24,13 @@ _CHUNK = 1 << 18
 
 
 def _nearest_two(nc: NoiseConstants, layer: int, cx, cy, fx, fy):
-    """F1, F2, the offsets p − f of the nearest two points, and the nearest's grain word."""
+    """F1, F2, the offsets p − f of the nearest two points, and the nearest's grain word.
+
+    Points are offered in the shader's order (``_NEIGHBOURS``, then point 0 before 1) with
+    strict comparisons, so ties break alike in both backends wherever both compute the tied
+    distances exactly; on a tie rounded differently in float32 and float64 (a Voronoi border of a
+    jitter-0 lattice) they may pick different, equally near points.
+    """
     n = cx.shape[0]
     f1 = np.ones(n)
     f2 = np.ones(n)
@@ -34,21 +39,16 @@ def _nearest_two(nc: NoiseConstants, layer: int, cx, cy, fx, fy):
     word1 = np.zeros(n, dtype=np.uint32)
     p = nc.period
     for ox, oy in _NEIGHBOURS:
-        key = np.empty((n, 4), dtype=np.uint32)
-        key[:, 0] = (cx + ox) % p
-        key[:, 1] = (cy + oy) % p
-        key[:, 2] = layer
-        key[:, 3] = nc.seed
-        positions, depths, words = unpack_points(pcg4d(key), nc.jitter)
-        for k in range(positions.shape[1]):
+        words = point_words(nc, (cx + ox) % p, (cy + oy) % p, layer)
+        positions, depths = unpack_points(words, nc.jitter)
+        for k in range(words.shape[1]):
             dx = fx - (positions[:, k, 0] + ox)
             dy = fy - (positions[:, k, 1] + oy)
             f = dx * dx + dy * dy + depths[:, k] * depths[:, k]
-            # Strict comparisons in a fixed order: the same tie-breaking as the shader.
             nearest = f < f1
             second = ~nearest & (f < f2)
             f2 = np.where(nearest, f1, np.where(second, f, f2))
-            delta2 = np.where(nearest[:, None], delta1, np.where(second[:, None], 0, delta2))
+            delta2 = np.where(nearest[:, None], delta1, delta2)
             delta2[second, 0] = dx[second]
             delta2[second, 1] = dy[second]
             f1 = np.where(nearest, f, f1)
@@ -99,7 +99,7 @@ def _evaluate_chunk(nc, size, xs, ys, out, offset) -> None:
             nc, layer, cx[todo], cy[todo], fx[todo], fy[todo]
         )
         profile = PROFILE_OFFSET + PROFILE_SCALE * (np.sqrt(f2) - np.sqrt(f1))
-        grain = (profile > nc.threshold) & (10.0 * nc.roundness * f1 < ROUNDNESS_LIMIT)
+        grain = (profile > nc.threshold) & (f1 < nc.grain_reach2)
         owned = todo[grain]
         gradient = PROFILE_SCALE * (
             _distance_gradient(delta2[grain], f2[grain])

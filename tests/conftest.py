@@ -1,0 +1,39 @@
+"""Fixtures shared by the test suites: the headless GL context and strict numpy."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture(scope="session")
+def gl_ctx():
+    """The headless EGL context of this thread.
+
+    GL tests skip where no context can be created, except in CI, where that is a failure.
+    """
+    from sand_editor.gl import GLUnavailableError, standalone_context
+
+    try:
+        return standalone_context()
+    except GLUnavailableError as exc:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"CI must run the GL tests: {exc}")
+        pytest.skip(str(exc))
+
+
+@pytest.fixture
+def gl_clean(gl_ctx):
+    """The context, with no GL error pending before the test and none raised by it."""
+    assert gl_ctx.error == "GL_NO_ERROR", "a GL error was left pending before the test"
+    yield gl_ctx
+    assert gl_ctx.error == "GL_NO_ERROR"
+
+
+@pytest.fixture
+def strict_numpy():
+    """Every floating-point warning (invalid, divide, overflow, underflow) raises."""
+    with np.errstate(all="raise"):
+        yield
