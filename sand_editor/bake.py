@@ -1,0 +1,105 @@
+"""Bake a preset's grain textures to image files an engine (or our renderer) can load."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from sand_editor.generator import SandTextures, generate
+from sand_editor.generator.noise import linear_to_srgb
+from sand_editor.preset import Preset
+
+LOW_RES_SIZE = 64
+FILES = {
+    "albedo.png": "sRGB 8-bit RGB, the grain colours",
+    "albedo_low.png": f"sRGB 8-bit RGB, {LOW_RES_SIZE}² area average of the albedo (far field)",
+    "normal.png": "8-bit RGB, tangent-space normal encoded n·0.5 + 0.5 (+z out of the surface)",
+    "height.png": "16-bit grey, grain profile height · 65535 (heights lie in [0, 0.9])",
+    "glint.png": "8-bit grey, glint value of top-layer grains, 0 elsewhere",
+    "layer.png": "8-bit grey, owning layer + 1 (0 in gaps)",
+}
+
+
+def _to_8bit(values: np.ndarray) -> np.ndarray:
+    return np.clip(np.rint(values * 255.0), 0, 255).astype(np.uint8)
+
+
+def _image_rows(array: np.ndarray) -> np.ndarray:
+    # Arrays keep row 0 at v = 0 (OpenGL's convention); image files start at the top, v = 1.
+    return np.ascontiguousarray(np.flipud(array))
+
+
+def _area_average(image: np.ndarray, size: int) -> np.ndarray:
+    """Mean over equal blocks (exact when size divides the edge, else nearest block bounds)."""
+    edge = image.shape[0]
+    bounds = np.linspace(0, edge, size + 1).round().astype(int)
+    rows = np.add.reduceat(image, bounds[:-1], axis=0) / np.diff(bounds)[:, None, None]
+    return np.add.reduceat(rows, bounds[:-1], axis=1) / np.diff(bounds)[None, :, None]
+
+
+def encode_images(textures: SandTextures) -> dict[str, Image.Image]:
+    """The baked images of a texture set, by file name."""
+    low = _area_average(textures.albedo.astype(np.float64), min(LOW_RES_SIZE, textures.size))
+    height16 = np.clip(np.rint(textures.height * 65535.0), 0, 65535).astype(np.uint16)
+    return {
+        "albedo.png": Image.fromarray(_image_rows(_to_8bit(linear_to_srgb(textures.albedo)))),
+        "albedo_low.png": Image.fromarray(_image_rows(_to_8bit(linear_to_srgb(low)))),
+        "normal.png": Image.fromarray(_image_rows(_to_8bit(textures.normal * 0.5 + 0.5))),
+        "height.png": Image.fromarray(_image_rows(height16)),
+        "glint.png": Image.fromarray(_image_rows(_to_8bit(textures.glint))),
+        "layer.png": Image.fromarray(_image_rows((textures.layer + 1).astype(np.uint8))),
+    }
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    handle = tempfile.NamedTemporaryFile(dir=path.parent, prefix=f".{path.name}.", delete=False)
+    try:
+        with handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.chmod(handle.name, 0o644)  # temporary files start private; baked files are to share
+        os.replace(handle.name, path)
+    except BaseException:
+        Path(handle.name).unlink(missing_ok=True)
+        raise
+
+
+def material_record(preset: Preset, textures: SandTextures) -> dict:
+    average = textures.average_albedo.astype(np.float64)
+    srgb = _to_8bit(linear_to_srgb(average))
+    return {
+        "format": "sand-editor-material",
+        "version": 1,
+        "size": textures.size,
+        "orientation": "image row 0 is the top of the texture (v = 1)",
+        "files": FILES,
+        "average_albedo_linear": [round(float(c), 6) for c in average],
+        "average_albedo_srgb": "#{:02x}{:02x}{:02x}".format(*srgb),
+        "statistics": textures.statistics(preset.generation.layers),
+        "preset": preset.to_dict(),
+    }
+
+
+def bake(preset: Preset, size: int, out_dir: Path, backend: str = "gl") -> dict:
+    """Generate and write the baked files; returns the material record.
+
+    Each file is written to a temporary name and renamed into place, and ``material.json`` comes
+    last, so a folder with a material.json holds a complete bake.
+    """
+    textures = generate(preset, size, backend=backend)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name, image in encode_images(textures).items():
+        buffer = io.BytesIO()
+        image.save(buffer, format="PNG")
+        _write_atomic(out_dir / name, buffer.getvalue())
+    record = material_record(preset, textures)
+    text = json.dumps(record, indent=2, ensure_ascii=False) + "\n"
+    _write_atomic(out_dir / "material.json", text.encode("utf-8"))
+    return record
