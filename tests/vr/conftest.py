@@ -1,0 +1,70 @@
+"""VR tests: two halves.
+
+``tests/vr/inside/`` runs inside tools/monado/run (a trixie root with Monado's
+simulated HMD, Xvfb and a cp313 venv); it imports ``xr`` and needs the runtime,
+so it is collected only when SAND_EDITOR_IN_MONADO=1, which the harness sets.
+On the host, ``test_harness.py`` drives the harness, including running the
+inside suite through it.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+IN_MONADO = os.environ.get("SAND_EDITOR_IN_MONADO") == "1"
+REPO = Path(__file__).resolve().parents[2]
+RUN = REPO / "tools" / "monado" / "run"
+# Generous: a cold cache means debootstrap plus apt (about a minute on a fast mirror).
+BUILD_TIMEOUT = 900
+
+collect_ignore = ["test_harness.py"] if IN_MONADO else ["inside"]
+
+
+def pytest_collection_modifyitems(items):
+    here = Path(__file__).parent
+    for item in items:
+        if here in Path(item.fspath).parents:
+            item.add_marker(pytest.mark.openxr)
+
+
+def _missing_prerequisite() -> str | None:
+    if not sys.platform.startswith("linux"):
+        return "the Monado harness needs Linux"
+    if os.geteuid() != 0:
+        return "the Monado harness needs root (debootstrap, chroot, mount namespaces)"
+    for tool in ("debootstrap", "unshare", "setpriv", "chroot", "flock"):
+        if shutil.which(tool) is None:
+            return f"the Monado harness needs {tool}, which is not installed"
+    probe = subprocess.run(
+        ["unshare", "--mount", "--pid", "--fork", "--net", "true"],
+        capture_output=True,
+        text=True,
+    )
+    if probe.returncode != 0:
+        return f"unshare is not permitted here: {probe.stderr.strip()}"
+    return None
+
+
+@pytest.fixture(scope="session")
+def monado_harness() -> Path:
+    """Path of tools/monado/run with its cached root built; skips where it cannot exist."""
+    reason = _missing_prerequisite()
+    if reason:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"CI=true but {reason}")
+        pytest.skip(reason)
+    build = subprocess.run(
+        [str(RUN), "--build-only"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=BUILD_TIMEOUT,
+    )
+    assert build.returncode == 0, f"building the Monado root failed:\n{build.stderr}"
+    return RUN
