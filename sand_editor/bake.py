@@ -57,18 +57,28 @@ def encode_images(textures: SandTextures) -> dict[str, Image.Image]:
     }
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    handle = tempfile.NamedTemporaryFile(dir=path.parent, prefix=f".{path.name}.", delete=False)
+def _write_all(out_dir: Path, files: dict[str, bytes]) -> None:
+    """Write every file to a temporary name first, then rename them all into place.
+
+    A failure while writing (a full disk, say) leaves the previous bake untouched and no
+    temporary files; only the renames, which do not fail for lack of space, touch old files.
+    """
+    written: list[tuple[str, Path]] = []
     try:
-        with handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.chmod(handle.name, 0o644)  # temporary files start private; baked files are to share
-        os.replace(handle.name, path)
+        for name, data in files.items():
+            handle = tempfile.NamedTemporaryFile(dir=out_dir, prefix=f".{name}.", delete=False)
+            written.append((handle.name, out_dir / name))
+            with handle:
+                handle.write(data)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.chmod(handle.name, 0o644)  # temporary files start private; a bake is to share
     except BaseException:
-        Path(handle.name).unlink(missing_ok=True)
+        for temporary, _ in written:
+            Path(temporary).unlink(missing_ok=True)
         raise
+    for temporary, final in written:
+        os.replace(temporary, final)
 
 
 def material_record(preset: Preset, textures: SandTextures) -> dict:
@@ -90,16 +100,17 @@ def material_record(preset: Preset, textures: SandTextures) -> dict:
 def bake(preset: Preset, size: int, out_dir: Path, backend: str = "gl") -> dict:
     """Generate and write the baked files; returns the material record.
 
-    Each file is written to a temporary name and renamed into place, and ``material.json`` comes
-    last, so a folder with a material.json holds a complete bake.
+    Everything is encoded in memory and written to temporary names before any file is replaced;
+    ``material.json`` is renamed last, so a folder with a material.json holds a complete bake.
     """
     textures = generate(preset, size, backend=backend)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    files = {}
     for name, image in encode_images(textures).items():
         buffer = io.BytesIO()
         image.save(buffer, format="PNG")
-        _write_atomic(out_dir / name, buffer.getvalue())
+        files[name] = buffer.getvalue()
     record = material_record(preset, textures)
-    text = json.dumps(record, indent=2, ensure_ascii=False) + "\n"
-    _write_atomic(out_dir / "material.json", text.encode("utf-8"))
+    files["material.json"] = (json.dumps(record, indent=2, ensure_ascii=False) + "\n").encode()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    _write_all(out_dir, files)
     return record

@@ -51,7 +51,9 @@ def _cmd_bench(args) -> int:
     if args.what == "generator":
         from sand_editor.bench.generator import main as bench_generator
 
-        return bench_generator(quick=args.quick, json_path=args.json, plot_path=args.plot)
+        return bench_generator(
+            quick=args.quick, sizes=args.sizes, json_path=args.json, plot_path=args.plot
+        )
     raise CommandError(f"unknown benchmark {args.what!r}")
 
 
@@ -75,6 +77,9 @@ def _parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="measure speed against error")
     bench.add_argument("what", choices=["generator"], help="what to measure")
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
+    bench.add_argument(
+        "--sizes", type=int, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"
+    )
     bench.add_argument("--json", help="write the results as JSON to this file")
     bench.add_argument("--plot", help="draw the results into this PNG file")
     bench.set_defaults(run=_cmd_bench)

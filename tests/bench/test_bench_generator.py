@@ -1,0 +1,60 @@
+"""The generator benchmark: it runs end to end and its measurements mean what they say."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from sand_editor.bench.generator import count_regions, normal_errors
+
+
+def test_normal_errors_measure_angles_and_mismatch():
+    n = np.array([[0.0, 0.0, 1.0]] * 4)
+    tilted = np.array([[np.sin(np.radians(2)), 0.0, np.cos(np.radians(2))]] * 4)
+    layers = np.array([0, 0, 1, 1])
+    other = np.array([0, 0, 1, 2])
+    result = normal_errors(tilted, layers, n, other)
+    assert result["layer_mismatch"] == pytest.approx(0.25)
+    assert result["normal_err_mean_deg"] == pytest.approx(2.0, rel=1e-9)
+    assert result["share_over_1deg"] == 1.0
+    tiny = np.array([[np.sin(1e-7), 0.0, np.cos(1e-7)]])
+    small = normal_errors(tiny, np.zeros(1), n[:1], np.zeros(1))["normal_err_mean_deg"]
+    assert small == pytest.approx(np.degrees(1e-7), rel=1e-3)
+
+
+def test_count_regions_wraps_and_separates_keys():
+    key = np.zeros((6, 6), dtype=np.int64)
+    mask = np.zeros((6, 6), dtype=bool)
+    mask[0, :5] = True
+    # (5, 0) touches (0, 0) across the top/bottom wrap, and (5, 5) touches (5, 0) across the
+    # left/right wrap: all one grain with row 0.
+    mask[5, 0] = mask[5, 5] = True
+    assert count_regions(key, mask) == 1
+    mask[3, 0:2] = True
+    key[3, 1] = 1  # touching pixels with different keys are two grains
+    assert count_regions(key, mask) == 3
+
+
+@pytest.mark.gl
+def test_bench_command_writes_table_json_and_plot(tmp_path):
+    json_path, plot_path = tmp_path / "bench.json", tmp_path / "bench.png"
+    result = subprocess.run(
+        [sys.executable, "-m", "sand_editor", "bench", "generator", "--quick", "--sizes", "64",
+         "--json", str(json_path), "--plot", str(plot_path)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "| 64² | ours, GL |" in result.stdout
+    data = json.loads(json_path.read_text())
+    rows = data["sizes"]["64"]
+    for row in ("ours-gl", "ours-reference", "reference-port"):
+        for key in ("median_s", "normal_err_mean_deg", "normal_err_p999_deg", "layer_mismatch"):
+            assert np.isfinite(rows[row][key]), (row, key)
+    assert rows["ours-gl"]["normal_err_p999_deg"] < 0.5
+    assert rows["ours-gl"]["layer_mismatch"] < 0.005
+    assert data["speedup_vs_reference_port"]["64"] > 1
+    assert plot_path.stat().st_size > 10_000
