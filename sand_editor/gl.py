@@ -21,7 +21,9 @@ class GLUnavailableError(RuntimeError):
 def standalone_context() -> moderngl.Context:
     """A headless context (EGL), one per thread, created on first use.
 
-    EGL needs no display, so this works on servers and in CI (Mesa's llvmpipe).
+    EGL needs no display, so this works on servers and in CI (Mesa's llvmpipe). GL calls go to
+    the thread's current context, so code that has a context of its own (a Qt window's) passes
+    that one to the generator instead, and no other standalone context is made on this thread.
     """
     ctx = getattr(_local, "ctx", None)
     if ctx is None:

@@ -17,7 +17,6 @@ uniform float u_jitter;
 layout(location = 0) out vec4 out_normal_height;
 layout(location = 1) out uvec2 out_layer_grain; // layer + 1 (0 in gaps), grain word
 
-const float UNIT_8 = 1.0 / 256.0;
 const vec2 ANCHOR0 = vec2(0.25);
 const vec2 ANCHOR1 = vec2(0.75);
 
@@ -27,51 +26,61 @@ uint lowbias32(uint x) {
     return x ^ (x >> 16u);
 }
 
-// Keeps the two smallest squared distances and the offsets p − f that give their gradients.
-void consider(float f, vec2 delta, uint word,
-              inout float f1, inout float f2, inout vec2 d1, inout vec2 d2, inout uint w1) {
-    if (f < f1) {
-        f2 = f1; d2 = d1;
-        f1 = f; d1 = delta; w1 = word;
-    } else if (f < f2) {
-        f2 = f; d2 = delta;
-    }
-}
+// One feature point of neighbour cell o of the pixel's cell: its offset to the pixel p − f (in
+// cells), its squared 3D distance, and its word. Point k of a cell sits around anchor k.
+struct Point { vec2 delta; float f; uint word; };
 
-// Squared in-plane distance from the pixel to the nearest point of neighbour cell o.
-float cell_reach2(ivec2 o, vec2 frac) {
-    vec2 reach = vec2(o.x < 0 ? frac.x : (o.x > 0 ? 1.0 - frac.x : 0.0),
-                      o.y < 0 ? frac.y : (o.y > 0 ? 1.0 - frac.y : 0.0));
-    return dot(reach, reach);
-}
-
-// Offers the two points of neighbour cell o (of the pixel's cell) to the nearest-two search.
-// A cell no nearer than F2 cannot change F1 or F2, so skipping it changes nothing but time.
-void visit(ivec2 o, ivec2 cell, vec2 frac, int layer,
-           inout float f1, inout float f2, inout vec2 d1, inout vec2 d2, inout uint w1) {
-    if (cell_reach2(o, frac) >= f2) return;
+Point feature_point(ivec2 o, int k, ivec2 cell, vec2 frac, int layer) {
     ivec2 c = cell + o;  // wrap into the tile without the slow integer modulo
     c += (ivec2(lessThan(c, ivec2(0))) - ivec2(greaterThanEqual(c, ivec2(u_period)))) * u_period;
     // One 32-bit word per point: x, y, depth and glint value, 8 bits each (noise.py).
-    uint key = (uint(c.y) * uint(u_period) + uint(c.x)) * 32u + uint(layer) * 2u;
-    uint h0 = lowbias32(key ^ u_seed_key);
-    uint h1 = lowbias32((key + 1u) ^ u_seed_key);
-    vec2 offset = vec2(o);
-    vec2 p0 = vec2(float(h0 & 0xffu), float((h0 >> 8u) & 0xffu)) * UNIT_8;
-    vec2 p1 = vec2(float(h1 & 0xffu), float((h1 >> 8u) & 0xffu)) * UNIT_8;
-    float z0 = float((h0 >> 16u) & 0xffu) * UNIT_8;
-    float z1 = float((h1 >> 16u) & 0xffu) * UNIT_8;
-    vec2 delta0 = frac - ((ANCHOR0 + u_jitter * (p0 - ANCHOR0)) + offset);
-    vec2 delta1 = frac - ((ANCHOR1 + u_jitter * (p1 - ANCHOR1)) + offset);
-    float depth0 = ANCHOR_DEPTH + u_jitter * (z0 - ANCHOR_DEPTH);
-    float depth1 = ANCHOR_DEPTH + u_jitter * (z1 - ANCHOR_DEPTH);
-    consider(dot(delta0, delta0) + depth0 * depth0, delta0, h0, f1, f2, d1, d2, w1);
-    consider(dot(delta1, delta1) + depth1 * depth1, delta1, h1, f1, f2, d1, d2, w1);
+    uint key = (uint(c.y) * uint(u_period) + uint(c.x)) * 32u + uint(layer) * 2u + uint(k);
+    uint word = lowbias32(key ^ u_seed_key);
+    vec2 anchor = k == 0 ? ANCHOR0 : ANCHOR1;
+    // Bytes placed in the top of a float's mantissa: 1 + byte/256 exactly, without an
+    // integer-to-float conversion (which AVX2 lacks for unsigned integers).
+    vec3 bytes = uintBitsToFloat(0x3f800000u | uvec3((word & 0xffu) << 15u, (word & 0xff00u) << 7u,
+                                                     (word & 0xff0000u) >> 1u)) - 1.0;
+    vec2 position = bytes.xy;
+    float depth = ANCHOR_DEPTH + u_jitter * (bytes.z - ANCHOR_DEPTH);
+    vec2 delta = frac - ((anchor + u_jitter * (position - anchor)) + vec2(o));
+    return Point(delta, dot(delta, delta) + depth * depth, word);
 }
 
-vec2 distance_gradient(vec2 delta, float f) {
-    float d = sqrt(f);
-    return d > 0.0 ? delta / d : vec2(0.0);
+// Keeps the two smallest squared distances and which points gave them. Only indices are
+// carried: llvmpipe runs both sides of every branch, so carrying offsets would cost more than
+// computing the two winners again once the owning layer is known.
+void consider(float f, int index, inout float f1, inout float f2, inout int i1, inout int i2) {
+    bool nearest = f < f1;
+    bool second = !nearest && f < f2;
+    i2 = nearest ? i1 : (second ? index : i2);
+    f2 = nearest ? f1 : (second ? f : f2);
+    i1 = nearest ? index : i1;
+    f1 = nearest ? f : f1;
+}
+
+// Point index: (ox + 1) + 3·(oy + 1) + 9·k for point k of neighbour cell (ox, oy).
+void visit(ivec2 o, ivec2 cell, vec2 frac, int layer,
+           inout float f1, inout float f2, inout int i1, inout int i2) {
+    int base = (o.x + 1) + 3 * (o.y + 1);
+    consider(feature_point(o, 0, cell, frac, layer).f, base, f1, f2, i1, i2);
+    consider(feature_point(o, 1, cell, frac, layer).f, base + 9, f1, f2, i1, i2);
+}
+
+Point indexed_point(int index, ivec2 cell, vec2 frac, int layer) {
+    int k = index >= 9 ? 1 : 0;
+    int rest = index - 9 * k;
+    int oy = rest >= 6 ? 1 : (rest >= 3 ? 0 : -1);
+    int ox = rest - 3 * (oy + 1) - 1;
+    return feature_point(ivec2(ox, oy), k, cell, frac, layer);
+}
+
+// ∇√F = (p − f)/√F, zero for a clamped distance (no point, index −1) or at F = 0.
+vec2 distance_gradient(int index, ivec2 cell, vec2 frac, int layer) {
+    if (index < 0) return vec2(0.0);
+    Point p = indexed_point(index, cell, frac, layer);
+    float d = sqrt(p.f);
+    return d > 0.0 ? p.delta / d : vec2(0.0);
 }
 
 void main() {
@@ -84,31 +93,41 @@ void main() {
     ivec2 cell = ivec2(floor(numerator / denominator));
     vec2 frac = (numerator - vec2(cell) * denominator) / denominator;
 
-    out_normal_height = vec4(0.0, 0.0, 1.0, 0.0);
-    out_layer_grain = uvec2(0u);
-
+    int owner = -1;
+    float owner_profile = 0.0;
+    int owner_i1 = -1, owner_i2 = -1;
     for (int layer = 0; layer < u_layers; ++layer) {
         float f1 = 1.0, f2 = 1.0;   // the reference clamps squared distances at 1
-        vec2 d1 = vec2(0.0), d2 = vec2(0.0);
-        uint w1 = 0u;
-        // The own cell first, then edges, then corners: the nearest points come early and more
-        // far cells are skipped. The reference backend offers them in the same order, so ties
-        // break alike. (Written out: llvmpipe keeps a looped-over const array in memory.)
-        visit(ivec2(0, 0), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(-1, 0), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(1, 0), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(0, -1), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(0, 1), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(-1, -1), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(1, -1), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(-1, 1), cell, frac, layer, f1, f2, d1, d2, w1);
-        visit(ivec2(1, 1), cell, frac, layer, f1, f2, d1, d2, w1);
+        int i1 = -1, i2 = -1;
+        // The own cell first, then edges, then corners; the reference backend offers the
+        // points in the same order, so ties break alike. (Written out: llvmpipe keeps a
+        // looped-over const array in memory.)
+        visit(ivec2(0, 0), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(-1, 0), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(1, 0), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(0, -1), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(0, 1), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(-1, -1), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(1, -1), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(-1, 1), cell, frac, layer, f1, f2, i1, i2);
+        visit(ivec2(1, 1), cell, frac, layer, f1, f2, i1, i2);
         float profile = PROFILE_OFFSET + PROFILE_SCALE * (sqrt(f2) - sqrt(f1));
         if (profile > u_threshold && f1 < u_grain_reach2) {
-            vec2 gradient = PROFILE_SCALE * (distance_gradient(d2, f2) - distance_gradient(d1, f1));
-            out_normal_height = vec4(normalize(vec3(-gradient, profile)), profile);
-            out_layer_grain = uvec2(uint(layer + 1), w1);
+            owner = layer;
+            owner_profile = profile;
+            owner_i1 = i1;
+            owner_i2 = i2;
             break;
         }
+    }
+
+    out_normal_height = vec4(0.0, 0.0, 1.0, 0.0);
+    out_layer_grain = uvec2(0u);
+    if (owner >= 0) {
+        vec2 gradient = PROFILE_SCALE * (distance_gradient(owner_i2, cell, frac, owner)
+                                         - distance_gradient(owner_i1, cell, frac, owner));
+        out_normal_height = vec4(normalize(vec3(-gradient, owner_profile)), owner_profile);
+        uint word = owner_i1 < 0 ? 0u : indexed_point(owner_i1, cell, frac, owner).word;
+        out_layer_grain = uvec2(uint(owner + 1), word);
     }
 }

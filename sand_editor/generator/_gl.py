@@ -35,8 +35,10 @@ class GpuSandTextures:
         albedo, glint = grain_appearance(constants, layer, grain)
         return SandTextures(
             albedo=albedo,
-            normal=np.ascontiguousarray(nh[..., :3]),
-            height=np.ascontiguousarray(nh[..., 3]),
+            # Views into the one read-back buffer: copying 16 MB at 1024² would cost more than
+            # anything a caller does with strided arrays.
+            normal=nh[..., :3],
+            height=nh[..., 3],
             glint=glint,
             layer=layer,
             grain_id=grain,

@@ -1,7 +1,6 @@
 import dataclasses
 import types
 
-import moderngl
 import numpy as np
 import pytest
 
@@ -13,16 +12,6 @@ from sand_editor.bench._reference_port import (
     _worley64,
     port_oracle,
 )
-
-
-@pytest.fixture(scope="module")
-def gl_ctx():
-    try:
-        ctx = moderngl.create_standalone_context(require=330, backend="egl")
-    except Exception as exc:  # no EGL or no GL 3.3 on this machine
-        pytest.skip(f"no headless OpenGL 3.3 context: {exc}")
-    yield ctx
-    ctx.release()
 
 
 @pytest.fixture(scope="module")
