@@ -81,4 +81,3 @@ def test_generate_leaves_no_gl_error(sand, gl_ctx):
     generate(sand.preset(), 64)
     generate(sand.preset(), 64)
     assert gl_ctx.error == "GL_NO_ERROR"
-

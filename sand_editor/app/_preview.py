@@ -1,0 +1,174 @@
+"""The texture preview: one tab per generated map, with tiling and nearest-neighbour zoom."""
+
+from __future__ import annotations
+
+import colorsys
+
+import numpy as np
+from PySide6.QtCore import QSize, Qt, Signal
+from PySide6.QtGui import QImage, QPixmap
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QHBoxLayout,
+    QLabel,
+    QScrollArea,
+    QTabBar,
+    QVBoxLayout,
+    QWidget,
+)
+
+from sand_editor.generator import SandTextures
+from sand_editor.generator.noise import MAX_LAYERS, linear_to_srgb
+
+CHANNELS = ("Albedo", "Normals", "Glint", "Layers")
+PREVIEW_SIZES = (256, 512, 1024)
+DEFAULT_PREVIEW_SIZE = 512
+ZOOMS = {"Fit": None, "1:1": 1, "2:1": 2}
+
+
+def _layer_palette() -> np.ndarray:
+    # Golden-ratio hue steps keep neighbouring layers far apart in colour; gaps are black.
+    colors = [(0.0, 0.0, 0.0)]
+    colors += [colorsys.hsv_to_rgb((i * 0.618034) % 1.0, 0.75, 0.95) for i in range(MAX_LAYERS)]
+    return (np.array(colors) * 255 + 0.5).astype(np.uint8)
+
+
+LAYER_PALETTE = _layer_palette()
+
+
+def channel_rgb(textures: SandTextures, channel: str) -> np.ndarray:
+    """8-bit sRGB image (size, size, 3) of one map, as shown on screen."""
+    if channel == "Albedo":
+        encoded = linear_to_srgb(textures.albedo)
+    elif channel == "Normals":
+        encoded = textures.normal * 0.5 + 0.5
+    elif channel == "Glint":
+        encoded = np.repeat(textures.glint[..., None], 3, axis=2)
+    elif channel == "Layers":
+        return LAYER_PALETTE[textures.layer.astype(np.int64) + 1]
+    else:
+        raise ValueError(f"unknown channel {channel!r}; allowed: {', '.join(CHANNELS)}")
+    return (np.clip(encoded, 0.0, 1.0) * 255 + 0.5).astype(np.uint8)
+
+
+def rgb_to_qimage(rgb: np.ndarray) -> QImage:
+    rgb = np.ascontiguousarray(rgb)
+    height, width, _ = rgb.shape
+    # copy(): the QImage must own its pixels, not borrow the numpy buffer.
+    return QImage(rgb.data, width, height, 3 * width, QImage.Format.Format_RGB888).copy()
+
+
+class PreviewPanel(QWidget):
+    """Shows the latest generated tile; emits ``size_changed(int)`` for the preview size combo."""
+
+    size_changed = Signal(int)
+
+    def __init__(self, parent: QWidget | None = None):
+        super().__init__(parent)
+        self._textures: SandTextures | None = None
+        self._image = QImage()
+        self._target_size = DEFAULT_PREVIEW_SIZE
+
+        self.tabs = QTabBar(self, objectName="preview-tabs")
+        for channel in CHANNELS:
+            self.tabs.addTab(channel)
+        self.tiling = QCheckBox("Tile 2×2", self, objectName="preview-tiling")
+        self.tiling.setToolTip("Show four copies of the tile, so seams would be visible.")
+        self.zoom = QComboBox(self, objectName="preview-zoom")
+        self.zoom.addItems(list(ZOOMS))
+        self.zoom.setToolTip("Fit the window, or show texels 1:1 or 2:1 (nearest neighbour).")
+        self.size_combo = QComboBox(self, objectName="preview-size")
+        for size in PREVIEW_SIZES:
+            self.size_combo.addItem(f"{size} px", size)
+        self.size_combo.setCurrentIndex(PREVIEW_SIZES.index(DEFAULT_PREVIEW_SIZE))
+        self.size_combo.setToolTip("Resolution of the generated preview tile.")
+
+        self.view = QLabel(objectName="preview-image")
+        self.view.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.scroll = QScrollArea(self)
+        self.scroll.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.scroll.setWidget(self.view)
+        self.scroll.setWidgetResizable(True)
+
+        bar = QHBoxLayout()
+        bar.addWidget(self.tabs)
+        bar.addStretch(1)
+        for label, widget in (("", self.tiling), ("Zoom", self.zoom), ("Size", self.size_combo)):
+            if label:
+                bar.addWidget(QLabel(label, self))
+            bar.addWidget(widget)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addLayout(bar)
+        layout.addWidget(self.scroll, 1)
+
+        self.tabs.currentChanged.connect(self._rebuild_image)
+        self.tiling.toggled.connect(self._rebuild_image)
+        self.zoom.currentIndexChanged.connect(self._show_image)
+        self.size_combo.currentIndexChanged.connect(
+            lambda: self.size_changed.emit(self.preview_size)
+        )
+
+    @property
+    def preview_size(self) -> int:
+        return int(self.size_combo.currentData())
+
+    @property
+    def channel(self) -> str:
+        return CHANNELS[self.tabs.currentIndex()]
+
+    @property
+    def textures(self) -> SandTextures | None:
+        return self._textures
+
+    def image(self) -> QImage:
+        """The tile (or 2×2 tiles) of the current tab at texture resolution."""
+        return self._image
+
+    def show_textures(self, textures: SandTextures, final: bool) -> None:
+        self._textures = textures
+        # A low-resolution first tile is shown at the size the full one will have.
+        self._target_size = textures.size if final else self.preview_size
+        self._rebuild_image()
+
+    def show_message(self, text: str) -> None:
+        self._textures = None
+        self._image = QImage()
+        self.view.setPixmap(QPixmap())
+        self.view.setText(text)
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        if ZOOMS[self.zoom.currentText()] is None:
+            self._show_image()
+
+    def _rebuild_image(self) -> None:
+        if self._textures is None:
+            return
+        rgb = channel_rgb(self._textures, self.channel)
+        if self.tiling.isChecked():
+            rgb = np.tile(rgb, (2, 2, 1))
+        self._image = rgb_to_qimage(rgb)
+        self._show_image()
+
+    def _show_image(self) -> None:
+        if self._image.isNull():
+            return
+        tiles = 2 if self.tiling.isChecked() else 1
+        zoom = ZOOMS[self.zoom.currentText()]
+        if zoom is None:
+            available = self.scroll.viewport().size() - QSize(4, 4)
+            side = max(1, min(available.width(), available.height()))
+            shown = QSize(side, side)
+        else:
+            shown = QSize(self._target_size * tiles * zoom, self._target_size * tiles * zoom)
+        self.scroll.setWidgetResizable(zoom is None)
+        pixmap = QPixmap.fromImage(
+            self._image.scaled(
+                shown, Qt.AspectRatioMode.KeepAspectRatio, Qt.TransformationMode.FastTransformation
+            )
+        )
+        self.view.setPixmap(pixmap)
+        if zoom is not None:
+            self.view.resize(pixmap.size())
