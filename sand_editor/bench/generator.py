@@ -267,6 +267,7 @@ def plot(results: dict, path: str) -> None:
         ax_err.scatter(ms, errors, label=title.strip())
     ax_time.set(xscale="log", yscale="log", xlabel="texture edge (px)", ylabel="median time (ms)")
     ax_time.set_xticks(sizes, [str(s) for s in sizes])
+    ax_time.minorticks_off()
     ax_time.set_title("Speed")
     ax_time.legend()
     ax_err.set(xscale="log", yscale="log", xlabel="median time (ms)")
