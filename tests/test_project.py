@@ -57,6 +57,7 @@ def test_wheel_carries_its_resources_and_works_outside_the_checkout(tmp_path):
         "sand_editor/shaders/sand_generate.frag",
         "sand_editor/shaders/fullscreen.vert",
         "sand_editor/presets/paper-default.json",
+        "sand_editor/ui/editor.qss",
     ):
         assert resource in names
     site = tmp_path / "site"

@@ -22,7 +22,7 @@ from sand_editor.app._preview import PreviewPanel
 from sand_editor.app._regenerator import Regenerator
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
-from sand_editor.resources import bundled_preset, presets_dir
+from sand_editor.resources import bundled_preset, presets_dir, ui_dir
 
 _REGENERATING = frozenset(spec.path for spec in FIELDS if spec.regenerates)
 _FILE_FILTER = "Sand presets (*.json);;All files (*)"
@@ -51,6 +51,7 @@ class EditorWindow(QMainWindow):
     ):
         super().__init__(parent)
         self.resize(1280, 820)
+        self.setStyleSheet((ui_dir() / "editor.qss").read_text(encoding="utf-8"))
         self.model = PresetModel(preset, self)
         self._path = Path(path) if path is not None else None
         self._source = Path(source) if source is not None else self._path

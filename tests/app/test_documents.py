@@ -169,3 +169,11 @@ def test_closing_without_changes_does_not_ask(window, monkeypatch):
     asked = answer_questions(monkeypatch, QMessageBox.StandardButton.Cancel)
     assert window.close()
     assert asked == []
+
+
+def test_window_wears_the_shipped_stylesheet(window):
+    from sand_editor.resources import ui_dir
+
+    shipped = (ui_dir() / "editor.qss").read_text(encoding="utf-8")
+    assert window.styleSheet() == shipped
+    assert "QGroupBox" in shipped
