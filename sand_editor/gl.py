@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import re
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 
 import moderngl
@@ -38,14 +39,58 @@ def standalone_context() -> moderngl.Context:
     return ctx
 
 
-def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | None = None):
-    """Program of the fullscreen triangle and a fragment shader from ``shaders/``."""
-    source = shader_source(fragment)
+_INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([^"]+)"[ \t]*$', re.M)
+
+
+class ShaderSourceError(ValueError):
+    """A shader file names an include that does not exist, or includes itself."""
+
+
+def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
+    """GLSL source of a file in ``shaders/`` with its ``#include "…"`` lines resolved and
+    ``defines`` inserted after its ``#version`` line.
+
+    Each file is included once per program (later includes of it are dropped), so shared
+    libraries can include what they use.
+    """
+    seen: set[str] = set()
+
+    def expand(file: str, chain: tuple[str, ...]) -> str:
+        if file in chain:
+            raise ShaderSourceError(f"shaders/{file}: includes itself via {' -> '.join(chain)}")
+        if file in seen:
+            return ""
+        seen.add(file)
+        try:
+            text = shader_source(file)
+        except FileNotFoundError:
+            where = f" (included from shaders/{chain[-1]})" if chain else ""
+            raise ShaderSourceError(f"shaders/{file}: no such shader file{where}") from None
+        return _INCLUDE.sub(lambda m: expand(m.group(1), (*chain, file)), text)
+
+    source = expand(name, ())
     if defines:
         header, _, body = source.partition("\n")
         lines = "".join(f"#define {key} {value}\n" for key, value in defines.items())
         source = f"{header}\n{lines}{body}"
-    return ctx.program(vertex_shader=shader_source("fullscreen.vert"), fragment_shader=source)
+    return source
+
+
+def program(ctx: moderngl.Context, name: str, defines: Mapping[str, object] | None = None):
+    """A program from one file holding both stages, ``#if defined VERTEX_SHADER`` and
+    ``#elif defined FRAGMENT_SHADER`` sections (the file is compiled once per stage)."""
+    base = dict(defines or {})
+    return ctx.program(
+        vertex_shader=shader_text(name, {**base, "VERTEX_SHADER": 1}),
+        fragment_shader=shader_text(name, {**base, "FRAGMENT_SHADER": 1}),
+    )
+
+
+def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | None = None):
+    """Program of the fullscreen triangle and a fragment shader from ``shaders/``."""
+    return ctx.program(
+        vertex_shader=shader_text("fullscreen.vert"), fragment_shader=shader_text(fragment, defines)
+    )
 
 
 def draw_fullscreen(ctx: moderngl.Context, program) -> None:

@@ -1,0 +1,212 @@
+"""The sand material on the GPU: filterable grain textures, ripple maps and shading uniforms.
+
+``SandMaterial.update(preset)`` regenerates only what a change needs: new grains when a
+generation parameter changed, new glint moments when the glint selection (μ, σ) changed, and
+nothing but uniforms for every other shading parameter. ``bind(program)`` hands all of it to a
+program that includes ``shaders/sand_surface.glsl``.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from sand_editor.generator import check_size, gl_generator
+from sand_editor.generator.noise import MAX_LAYERS, NoiseConstants, colour_thresholds
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
+from sand_editor.preset import Preset
+
+DEFAULT_TEXTURE_SIZE = 1024
+RIPPLE_MAP_SIZE = 256
+# Glint filters of shaders/sand_surface.glsl.
+GLINT_FILTERS = {"ours": 0, "reference": 1, "none": 2, "ground-truth": 3}
+# Close-range work is skipped where the far term's blend weight is above this.
+CLOSE_CUTOFF = 0.999
+
+_SHADING_UNIFORMS = {
+    "glint_shininess": "u_glint_shininess",
+    "glint_mu": "u_glint_mu",
+    "glint_sigma": "u_glint_sigma",
+    "sample_count": "u_sample_count",
+    "sample_spread": "u_sample_spread",
+    "sss": "u_sss",
+    "scattering": "u_scattering",
+    "absorption": "u_absorption",
+    "fresnel_roughness": "u_fresnel_roughness",
+    "transmission": "u_transmission",
+    "transmission_roughness": "u_transmission_roughness",
+    "ripple_strength": "u_ripple_strength",
+    "detail_strength": "u_detail_strength",
+    "sigmoid_a": "u_sigmoid_a",
+    "sigmoid_b": "u_sigmoid_b",
+    "uv_scale": "u_uv_scale",
+}
+
+
+def _periodic_gradient(height: np.ndarray) -> np.ndarray:
+    """Slopes (∂h/∂u, ∂h/∂v) of a periodic height map over a unit tile, by central differences."""
+    n = height.shape[0]
+    du = (np.roll(height, -1, axis=1) - np.roll(height, 1, axis=1)) * (n / 2.0)
+    dv = (np.roll(height, -1, axis=0) - np.roll(height, 1, axis=0)) * (n / 2.0)
+    return np.stack([du, dv], axis=-1)
+
+
+def ripple_slopes(size: int, ripples: int, wiggles: int, sharpness: float, seed: int) -> np.ndarray:
+    """Slopes of a tileable field of sand ripples over a 1 m tile, largest slope 1.
+
+    Crests run along v with a gentle sinuous wander; across them (along u) each ripple rises
+    slowly on its windward side and drops steeply on its lee side.
+    """
+    rng = np.random.default_rng(seed)
+    u, v = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size)
+    wander = sum(
+        rng.uniform(0.05, 0.12) / k * np.sin(2 * np.pi * (k * wiggles * v + rng.uniform()))
+        for k in (1, 2, 3)
+    )
+    phase = ripples * u + wander
+    # A skewed sine: windward and lee sides of unequal length.
+    t = 2 * np.pi * phase
+    height = np.sin(t + sharpness * np.sin(t)) / ripples
+    slopes = _periodic_gradient(height)
+    return (slopes / np.abs(slopes).max()).astype(np.float32)
+
+
+def detail_slopes(size: int, seed: int) -> np.ndarray:
+    """Slopes of a tileable fine undulation (sums of random integer-frequency waves), max 1."""
+    rng = np.random.default_rng(seed)
+    u, v = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size)
+    height = np.zeros((size, size))
+    for _ in range(24):
+        fu, fv = rng.integers(-12, 13, size=2)
+        height += np.sin(2 * np.pi * (fu * u + fv * v + rng.uniform())) / (1.0 + np.hypot(fu, fv))
+    slopes = _periodic_gradient(height)
+    return (slopes / np.abs(slopes).max()).astype(np.float32)
+
+
+class SandMaterial:
+    """GPU resources of a sand preset, for ``shaders/sand_surface.glsl``."""
+
+    def __init__(self, ctx: moderngl.Context, texture_size: int = DEFAULT_TEXTURE_SIZE) -> None:
+        self.ctx = ctx
+        self.texture_size = check_size(texture_size)
+        self.preset: Preset | None = None
+        self.average_albedo = np.zeros(3, dtype=np.float32)
+        self.glint_filter = "ours"
+        self.ground_truth_samples = 16
+        self.close_cutoff = CLOSE_CUTOFF
+        self._build = fullscreen_program(ctx, "material_build.frag")
+        self._grains = None
+        self._built_for = None
+        size = self.texture_size
+        self.albedo, self.glint_moments, self.spread_moments = (
+            self._filterable(ctx.texture((size, size), 4, dtype="f2")) for _ in range(3)
+        )
+        self._build_fbo = ctx.framebuffer([self.albedo, self.glint_moments, self.spread_moments])
+        self.ripple_steep = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 14, 3, 0.9, seed=1))
+        self.ripple_shallow = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 9, 2, 0.5, seed=2))
+        self.detail = self._map(detail_slopes(RIPPLE_MAP_SIZE, seed=3))
+
+    @staticmethod
+    def _filterable(texture: moderngl.Texture) -> moderngl.Texture:
+        texture.repeat_x = texture.repeat_y = True
+        texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        texture.anisotropy = 1.0
+        return texture
+
+    def _map(self, slopes: np.ndarray) -> moderngl.Texture:
+        texture = self.ctx.texture(slopes.shape[1::-1], 2, slopes.tobytes(), dtype="f4")
+        self._filterable(texture)
+        texture.build_mipmaps()
+        return texture
+
+    @property
+    def max_lod(self) -> float:
+        return float(np.log2(self.texture_size))
+
+    def update(self, preset: Preset) -> None:
+        """Make the GPU textures match ``preset``, doing only the work its changes need."""
+        generation = preset.generation
+        if self._grains is None or self.preset is None or self.preset.generation != generation:
+            constants = NoiseConstants.from_generation(generation)
+            generator = gl_generator(self.ctx)
+            if self._grains is not None:
+                self._grains.release()
+            self._grains = generator.render(constants, self.texture_size)
+            self._built_for = None
+        build_key = (generation, preset.shading.glint_mu, preset.shading.glint_sigma)
+        if self._built_for != build_key:
+            self._build_textures(preset)
+            self._built_for = build_key
+        self.preset = preset
+
+    def _build_textures(self, preset: Preset) -> None:
+        nc = NoiseConstants.from_generation(preset.generation)
+        program = self._build
+        self._grains.normal_height.use(location=0)
+        self._grains.layer_grain.use(location=1)
+        program["u_normal_height"].value = 0
+        program["u_layer_grain"].value = 1
+        program["u_base_color"].value = tuple(nc.base_color)
+        colours = nc.layer_colors.reshape(MAX_LAYERS * 4, 3).astype(np.float32)
+        program["u_layer_colors"].write(colours.tobytes())
+        program["u_colour_thresholds"].value = tuple(
+            int(t) for t in colour_thresholds(nc.cumulative_weights)
+        )
+        program["u_glint_mu"].value = preset.shading.glint_mu
+        program["u_glint_sigma"].value = preset.shading.glint_sigma
+        with drawing_into(self.ctx, self._build_fbo):
+            self.ctx.viewport = (0, 0, self.texture_size, self.texture_size)
+            draw_fullscreen(self.ctx, program)
+        for texture in (self.albedo, self.glint_moments, self.spread_moments):
+            texture.build_mipmaps()
+        # The last mip level is the average of the whole tile: the far-field colour.
+        top = int(self.max_lod)
+        texel = np.frombuffer(self.albedo.read(level=top), dtype=np.float16).astype(np.float32)
+        self.average_albedo = texel[:3].copy()
+
+    def bind(self, program, first_unit: int = 0) -> int:
+        """Bind the textures and set the uniforms of a program including sand_surface.glsl."""
+        if self.preset is None:
+            raise RuntimeError("SandMaterial.bind before update(preset)")
+        units = {
+            "u_albedo": self.albedo,
+            "u_glint_moments": self.glint_moments,
+            "u_spread_moments": self.spread_moments,
+            "u_ripple_steep": self.ripple_steep,
+            "u_ripple_shallow": self.ripple_shallow,
+            "u_detail": self.detail,
+        }
+        unit = first_unit
+        for name, texture in units.items():
+            if name in program:
+                texture.use(location=unit)
+                program[name].value = unit
+                unit += 1
+        shading = self.preset.shading
+        values = {uniform: getattr(shading, field) for field, uniform in _SHADING_UNIFORMS.items()}
+        values.update(
+            u_average_albedo=tuple(float(c) for c in self.average_albedo),
+            u_texture_size=float(self.texture_size),
+            u_max_lod=self.max_lod,
+            u_glint_filter=GLINT_FILTERS[self.glint_filter],
+            u_ground_truth_samples=int(self.ground_truth_samples),
+            u_close_cutoff=float(self.close_cutoff),
+        )
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+        return unit
+
+    def release(self) -> None:
+        if self._grains is not None:
+            self._grains.release()
+        for obj in (
+            self._build_fbo,
+            self.albedo,
+            self.glint_moments,
+            self.spread_moments,
+            self.ripple_steep,
+            self.ripple_shallow,
+            self.detail,
+        ):
+            obj.release()

@@ -1,0 +1,30 @@
+"""Render modes: their names on the command line and in the API, and their shader constants."""
+
+from __future__ import annotations
+
+MODES = ("full", "lambert", "close", "far", "blend", "glints", "normals", "mip")
+MODE_HELP = {
+    "full": "the material: glints and grains close up, BRDF far away, blended by distance",
+    "lambert": "plain Lambertian shading of the average colour on the macro normal (comparison)",
+    "close": "close-range shading only (grain normals, glints, diffuse)",
+    "far": "far-range shading only (d'Eon's BRDF on the rippled macro normal)",
+    "blend": "the blend weight s(d) as grey: black close, white far",
+    "glints": "the glint term alone",
+    "normals": "micro (grain) normals in world space, n·0.5 + 0.5",
+    "mip": "the grain textures' mip level, blue (0) to red (highest)",
+}
+
+
+def check_mode(mode: str) -> str:
+    if mode not in MODES:
+        raise ValueError(f"unknown render mode {mode!r}; allowed: {', '.join(MODES)}")
+    return mode
+
+
+def mode_index(mode: str) -> int:
+    return MODES.index(check_mode(mode))
+
+
+def mode_defines() -> dict[str, int]:
+    """``MODE_FULL`` = 0, ``MODE_LAMBERT`` = 1, … for the shaders."""
+    return {f"MODE_{name.upper()}": index for index, name in enumerate(MODES)}

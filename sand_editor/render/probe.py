@@ -1,0 +1,87 @@
+"""The material alone on a flat plane, rendered to HDR numpy arrays: the measuring instrument.
+
+Terrain, sky and post-processing would only add noise to the measurement of the material's
+filtering, so the benchmark and the material's tests look at the plane.
+"""
+
+from __future__ import annotations
+
+import time
+
+import moderngl
+import numpy as np
+
+from sand_editor.gl import drawing_into, program
+from sand_editor.render.camera import Camera, camera_at_distance
+from sand_editor.render.material import SandMaterial
+from sand_editor.render.modes import mode_defines, mode_index
+
+PLANE_HALF_EXTENT = 1.0e5
+
+
+class MaterialProbe:
+    """Renders a :class:`SandMaterial` on the plane y = 0 under one sun and a sky."""
+
+    def __init__(self, material: SandMaterial, width: int, height: int) -> None:
+        self.material = material
+        ctx = self.ctx = material.ctx
+        self.width, self.height = width, height
+        self.program = program(ctx, "probe.glsl", mode_defines())
+        e = PLANE_HALF_EXTENT
+        quad = np.array(
+            [[-e, 0, -e], [e, 0, -e], [e, 0, e], [-e, 0, -e], [e, 0, e], [-e, 0, e]], dtype="f4"
+        )
+        self._buffer = ctx.buffer(quad.tobytes())
+        self._vao = ctx.vertex_array(self.program, [(self._buffer, "3f", "in_position")])
+        self._colour = ctx.texture((width, height), 4, dtype="f4")
+        self._depth = ctx.depth_renderbuffer((width, height))
+        self._fbo = ctx.framebuffer([self._colour], self._depth)
+        self.sun_direction = np.array([0.0, 0.6, -0.8])
+        self.sun_radiance = np.array([3.0, 2.85, 2.6])
+        self.sky_irradiance = np.array([0.35, 0.45, 0.6])
+
+    def camera(self, distance_m: float, pitch_deg: float = 45.0, shift_px=(0.0, 0.0)) -> Camera:
+        camera = camera_at_distance(distance_m, pitch_deg, self.width / self.height)
+        if shift_px == (0.0, 0.0):
+            return camera
+        # A sub-pixel shift of the image: translate clip space after projection.
+        shift = np.eye(4, dtype=np.float32)
+        shift[0, 3] = 2.0 * shift_px[0] / self.width
+        shift[1, 3] = 2.0 * shift_px[1] / self.height
+        return Camera(view=camera.view, projection=(shift @ camera.projection).astype(np.float32))
+
+    def render(self, camera: Camera, mode: str = "full") -> tuple[np.ndarray, float]:
+        """HDR radiance (height, width, 3), rows top-down, and the GPU time in milliseconds."""
+        p = self.program
+        p["u_view_projection"].write(camera.view_projection.T.astype(np.float32).tobytes())
+        sun = self.sun_direction / np.linalg.norm(self.sun_direction)
+        lights = {
+            "u_eye": camera.position,
+            "u_sun_direction": sun,
+            "u_sun_radiance": self.sun_radiance,
+            "u_moon_direction": -sun,
+            "u_moon_radiance": np.zeros(3),
+            "u_sky_irradiance": self.sky_irradiance,
+        }
+        for name, value in lights.items():
+            if name in p:
+                p[name].value = tuple(float(c) for c in value)
+        p["u_mode"].value = mode_index(mode)
+        self.material.bind(p)
+        with drawing_into(self.ctx, self._fbo):
+            self.ctx.viewport = (0, 0, self.width, self.height)
+            self.ctx.enable(moderngl.DEPTH_TEST)
+            self.ctx.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            self.ctx.finish()
+            start = time.perf_counter()
+            self._vao.render(moderngl.TRIANGLES)
+            self.ctx.finish()
+            elapsed_ms = (time.perf_counter() - start) * 1e3
+        pixels = np.frombuffer(self._colour.read(), dtype=np.float32).reshape(
+            self.height, self.width, 4
+        )
+        return np.ascontiguousarray(pixels[::-1, :, :3]), elapsed_ms
+
+    def release(self) -> None:
+        for obj in (self._vao, self._buffer, self._fbo, self._colour, self._depth):
+            obj.release()

@@ -1,0 +1,57 @@
+#version 330 core
+// Builds level 0 of the sand material's filterable textures from the generated grains. Every
+// quantity written here is linear in what the renderer averages, so the GPU's mipmaps (box
+// averages) stay exact footprint averages at every level:
+//   albedo:  linear RGB of the grain, and its glint value g in alpha (top layer, else 0)
+//   glint:   w, w·bx, w·by, w·bx·by   (w = glint selection weight of g; b = slope of the grain
+//            normal, n ∝ (bx, by, 1))
+//   spread:  w·bx², w·by², bx, by
+// so a footprint's w-weighted slope mean and covariance (LEAN mapping) and its plain mean slope
+// (the diffuse normal) come out of one trilinear fetch per texture.
+
+uniform sampler2D u_normal_height;   // generator output: normal xyz, height
+uniform usampler2D u_layer_grain;    // generator output: layer + 1 (0 in gaps), grain word
+uniform vec3 u_base_color;           // linear
+uniform vec3 u_layer_colors[60];     // linear, 15 layers × 4 palette entries
+uniform uvec3 u_colour_thresholds;   // 16-bit colour pick bounds (noise.colour_thresholds)
+uniform float u_glint_mu;
+uniform float u_glint_sigma;
+
+layout(location = 0) out vec4 out_albedo;
+layout(location = 1) out vec4 out_glint;
+layout(location = 2) out vec4 out_spread;
+
+uint lowbias32(uint x) {
+    x ^= x >> 16u; x *= 0x7feb352du;
+    x ^= x >> 15u; x *= 0x846ca68bu;
+    return x ^ (x >> 16u);
+}
+
+void main() {
+    ivec2 texel = ivec2(gl_FragCoord.xy);
+    vec4 normal_height = texelFetch(u_normal_height, texel, 0);
+    uvec2 layer_grain = texelFetch(u_layer_grain, texel, 0).xy;
+    int layer = int(layer_grain.x) - 1;
+    uint word = layer_grain.y;
+
+    vec3 albedo = u_base_color;
+    float w = 0.0;
+    if (layer >= 0) {
+        uint pick = lowbias32(word) >> 16u;
+        int colour = int(pick >= u_colour_thresholds.x) + int(pick >= u_colour_thresholds.y)
+                   + int(pick >= u_colour_thresholds.z);
+        albedo = u_layer_colors[layer * 4 + colour];
+        if (layer == 0) {
+            // The reference's per-grain selection: a Gaussian in the grain's glint value.
+            float g = float(word >> 24u) / 256.0;
+            float z = (g - u_glint_mu) / u_glint_sigma;
+            w = exp(-0.5 * z * z);
+        }
+    }
+    vec3 n = normal_height.xyz;
+    vec2 b = n.xy / n.z;   // n.z ≥ the profile's minimum over |∇n|: never 0
+    float glint_value = layer == 0 ? float(word >> 24u) / 256.0 : 0.0;
+    out_albedo = vec4(albedo, glint_value);
+    out_glint = vec4(w, w * b, w * b.x * b.y);
+    out_spread = vec4(w * b * b, b);
+}

@@ -1,0 +1,372 @@
+// The sand material: shade_sand(point, lighting, mode) for any surface that includes this file
+// (after lighting.glsl). Close up: grain albedo and normals, glints, subsurface-flavoured diffuse,
+// Fresnel and forward transmission; far away: d'Eon's Lambertian-sphere BRDF of the average
+// colour on the rippled macro normal; between them the preset's sigmoid of distance. Uniforms are
+// set by sand_editor/render/material.py (SandMaterial.bind).
+//
+// Glints are filtered by moments (LEAN mapping, Olano & Baker 2010): the material's mipmaps hold
+// the w-weighted mean and covariance of grain-normal slopes, w being each grain's glint selection
+// weight, so the expected glint of a whole footprint is one closed-form Gaussian integral per
+// light instead of many taps. The footprint is the one the reference's N×N multisampling covers
+// (sample_count × sample_spread pixels), fetched once with anisotropic trilinear filtering.
+
+struct SurfacePoint {
+    vec3 position;   // world (metres)
+    vec3 normal;     // macro normal, unit, world
+    vec3 tangent;    // unit, world, direction of +u
+    vec3 bitangent;  // unit, world, direction of +v
+    vec2 uv;         // metres along the surface; the material applies its scale
+};
+
+uniform sampler2D u_albedo;          // linear albedo, glint value g
+uniform sampler2D u_glint_moments;   // w, w·bx, w·by, w·bx·by
+uniform sampler2D u_spread_moments;  // w·bx², w·by², bx, by
+uniform sampler2D u_ripple_steep;    // tangent-space slope (∂h/∂u, ∂h/∂v) of ripples, 1 m tile
+uniform sampler2D u_ripple_shallow;
+uniform sampler2D u_detail;
+uniform vec3 u_average_albedo;       // linear: the far-field colour
+uniform float u_texture_size;        // texels per tile edge of the grain textures
+uniform float u_max_lod;
+uniform float u_uv_scale;            // tiles per metre
+uniform float u_glint_shininess;
+uniform float u_glint_mu;
+uniform float u_glint_sigma;
+uniform int u_sample_count;
+uniform float u_sample_spread;
+uniform float u_sss;
+uniform float u_scattering;
+uniform float u_absorption;
+uniform float u_fresnel_roughness;
+uniform float u_transmission;
+uniform float u_transmission_roughness;
+uniform float u_ripple_strength;
+uniform float u_detail_strength;
+uniform float u_sigmoid_a;
+uniform float u_sigmoid_b;
+// 0: ours (footprint moments); 1: the reference's N×N multisampling of mipmapped normals;
+// 2: none (one tap of the finest level); 3: ground truth (K×K taps of the finest level).
+uniform int u_glint_filter;
+uniform int u_ground_truth_samples;
+// Close-range work is skipped where the blend weight exceeds this (its share is below 1 − it).
+uniform float u_close_cutoff;
+
+const float PI = 3.14159265358979;
+const float GLINT_GAIN = 5000.0;     // the reference's glint radiance scale
+const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
+const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
+
+#define FILTER_OURS 0
+#define FILTER_REFERENCE 1
+#define FILTER_NONE 2
+#define FILTER_GROUND_TRUTH 3
+
+float blend_weight(float distance_m) {
+    // Clamped so exp() never overflows at 1 km with a steep sigmoid.
+    return 1.0 / (1.0 + exp(clamp(-u_sigmoid_a * (distance_m - u_sigmoid_b), -80.0, 80.0)));
+}
+
+vec3 to_tangent(vec3 v, SurfacePoint s) {
+    return vec3(dot(v, s.tangent), dot(v, s.bitangent), dot(v, s.normal));
+}
+
+vec3 to_world(vec3 t, SurfacePoint s) {
+    return normalize(t.x * s.tangent + t.y * s.bitangent + t.z * s.normal);
+}
+
+// Width² of the glint lobe in slope space: a Phong lobe of exponent Gs about the mirror direction
+// is a Gaussian of variance 1/(4·Gs) in the angle of the normal to the half vector; slopes
+// stretch angles by 1 + |b_h|² around slope b_h.
+float lobe_variance(vec2 b_half) {
+    float stretch = 1.0 + dot(b_half, b_half);
+    return stretch * stretch / (4.0 * max(u_glint_shininess, 0.1));
+}
+
+// The glint lobe of one normal slope b: 1 at the mirror configuration.
+float glint_lobe(vec2 b, vec2 b_half, float variance) {
+    vec2 d = b - b_half;
+    return exp(-0.5 * dot(d, d) / variance);
+}
+
+float glint_selection(float g) {
+    float z = (g - u_glint_mu) / u_glint_sigma;
+    return exp(-0.5 * z * z);
+}
+
+// E[w · lobe] over a footprint whose w-weighted slopes have mean m and covariance C:
+// ∫ N(b; m, C) exp(−|b − b_h|²/2α²) db = α²/√det(C + α²I) · exp(−½ (m − b_h)ᵀ(C + α²I)⁻¹(m − b_h)).
+float expected_glint(vec4 glint_moments, vec4 spread_moments, vec2 b_half, float variance) {
+    float w = glint_moments.x;
+    if (w < 1e-6) return 0.0;
+    vec2 m = glint_moments.yz / w;
+    // Filtering in half floats can leave a covariance a hair from positive semi-definite.
+    float cxx = max(spread_moments.x / w - m.x * m.x, 0.0);
+    float cyy = max(spread_moments.y / w - m.y * m.y, 0.0);
+    float cxy = glint_moments.w / w - m.x * m.y;
+    cxy = clamp(cxy, -sqrt(cxx * cyy), sqrt(cxx * cyy));
+    float sxx = cxx + variance, syy = cyy + variance;
+    float det = sxx * syy - cxy * cxy;
+    vec2 d = m - b_half;
+    float quad = (syy * d.x * d.x - 2.0 * cxy * d.x * d.y + sxx * d.y * d.y) / det;
+    return w * variance / sqrt(det) * exp(-0.5 * quad);
+}
+
+// Half vector slope of a light and view in tangent space; false where no grain facing up can
+// mirror one into the other (the half vector below the surface).
+bool half_slope(vec3 l_t, vec3 v_t, out vec2 b_half, out float v_dot_h) {
+    vec3 h = l_t + v_t;
+    float len = length(h);
+    if (len < 1e-6) return false;
+    h /= len;
+    v_dot_h = clamp(dot(v_t, h), 0.0, 1.0);
+    if (h.z < 0.02) return false;
+    b_half = h.xy / h.z;
+    return true;
+}
+
+// Schlick's Fresnel for quartz, normalised to 1 at normal incidence; the specular roughness damps
+// the grazing rise (rough grains do not mirror at grazing angles).
+float glint_fresnel(float v_dot_h) {
+    float schlick = SILICA_F0 + (1.0 - SILICA_F0) * pow(1.0 - v_dot_h, 5.0);
+    return mix(schlick / SILICA_F0, 1.0, u_fresnel_roughness);
+}
+
+// A random point in stratum (i, j) of a k×k grid over the pixel, centred on it. Regular taps
+// would alias against the texture's tiling far away; jittered ones keep the estimate unbiased.
+vec2 stratum_offset(int i, int j, int k) {
+    uvec2 p = uvec2(gl_FragCoord.xy);
+    uint h = (p.x * 1973u + p.y * 9277u + uint(i) * 26699u + uint(j) * 7919u) | 1u;
+    h ^= h >> 16u; h *= 0x7feb352du; h ^= h >> 15u; h *= 0x846ca68bu; h ^= h >> 16u;
+    vec2 r = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
+    return (vec2(float(i), float(j)) + r) / float(k) - 0.5;
+}
+
+struct Footprint {
+    vec2 tc;     // texture coordinates (tiles)
+    vec2 dx;     // screen derivatives of tc
+    vec2 dy;
+};
+
+// The expected glint factor (before light, gain and cosine) of one light over the footprint.
+float glint_factor(Footprint f, vec3 l_t, vec3 v_t) {
+    vec2 b_half;
+    float v_dot_h;
+    if (l_t.z <= 0.0 || v_t.z <= 0.0 || !half_slope(l_t, v_t, b_half, v_dot_h)) return 0.0;
+    float variance = lobe_variance(b_half);
+    float glint = 0.0;
+    if (u_glint_filter == FILTER_OURS) {
+        // The footprint of the reference's N×N kernel, in one anisotropic trilinear fetch.
+        float widen = max(1.0, float(u_sample_count) * u_sample_spread);
+        vec4 gm = textureGrad(u_glint_moments, f.tc, f.dx * widen, f.dy * widen);
+        vec4 sm = textureGrad(u_spread_moments, f.tc, f.dx * widen, f.dy * widen);
+        glint = expected_glint(gm, sm, b_half, variance);
+    } else if (u_glint_filter == FILTER_REFERENCE) {
+        // N×N taps spaced by spread × the pixel's derivatives, Gaussian-weighted; each tap
+        // evaluates the lobe at the mip-averaged normal and the selection at the averaged g.
+        int n = max(u_sample_count, 1);
+        float half_n = float(n - 1) * 0.5;
+        float sigma = max(half_n, 0.5) * 0.5;
+        float total = 0.0;
+        for (int j = 0; j < n; ++j) {
+            for (int i = 0; i < n; ++i) {
+                vec2 o = vec2(float(i) - half_n, float(j) - half_n);
+                float weight = exp(-0.5 * dot(o, o) / (sigma * sigma));
+                vec2 tc = f.tc + u_sample_spread * (o.x * f.dx + o.y * f.dy);
+                vec2 b = textureGrad(u_spread_moments, tc, f.dx, f.dy).zw;
+                float g = textureGrad(u_albedo, tc, f.dx, f.dy).a;
+                glint += weight * glint_lobe(b, b_half, variance) * glint_selection(g);
+                total += weight;
+            }
+        }
+        glint /= total;
+    } else if (u_glint_filter == FILTER_NONE) {
+        vec4 gm = textureLod(u_glint_moments, f.tc, 0.0);
+        vec4 sm = textureLod(u_spread_moments, f.tc, 0.0);
+        glint = gm.x < 1e-6 ? 0.0 : gm.x * glint_lobe(sm.zw, b_half, variance);
+    } else {
+        // Ground truth: K×K jittered stratified taps of the finest level across the pixel.
+        int k = max(u_ground_truth_samples, 1);
+        for (int j = 0; j < k; ++j) {
+            for (int i = 0; i < k; ++i) {
+                vec2 o = stratum_offset(i, j, k);
+                vec2 tc = f.tc + o.x * f.dx + o.y * f.dy;
+                vec4 gm = textureLod(u_glint_moments, tc, 0.0);
+                vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
+                glint += gm.x < 1e-6 ? 0.0 : gm.x * glint_lobe(b, b_half, variance);
+            }
+        }
+        glint /= float(k * k);
+    }
+    return glint * glint_fresnel(v_dot_h);
+}
+
+// Albedo and mean slope of the footprint (the ground truth averages its finest-level taps).
+void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
+    if (u_glint_filter == FILTER_GROUND_TRUTH) {
+        int k = max(u_ground_truth_samples, 1);
+        albedo = vec3(0.0);
+        slope = vec2(0.0);
+        for (int j = 0; j < k; ++j) {
+            for (int i = 0; i < k; ++i) {
+                vec2 o = stratum_offset(i, j, k);
+                vec2 tc = f.tc + o.x * f.dx + o.y * f.dy;
+                albedo += textureLod(u_albedo, tc, 0.0).rgb;
+                slope += textureLod(u_spread_moments, tc, 0.0).zw;
+            }
+        }
+        albedo /= float(k * k);
+        slope /= float(k * k);
+    } else if (u_glint_filter == FILTER_NONE) {
+        albedo = textureLod(u_albedo, f.tc, 0.0).rgb;
+        slope = textureLod(u_spread_moments, f.tc, 0.0).zw;
+    } else {
+        albedo = textureGrad(u_albedo, f.tc, f.dx, f.dy).rgb;
+        slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
+    }
+}
+
+// Subsurface-flavoured diffuse of the reference: a share fs of the light wraps around the grain
+// (scattering), and absorption along the subsurface path dims everything by fe.
+vec3 grain_diffuse(vec3 albedo, float n_dot_l, vec3 irradiance, vec3 sky) {
+    float fs = clamp(u_scattering * u_sss, 0.0, 1.0);
+    float fe = exp(-u_absorption * u_sss);
+    return fe * albedo / PI * (irradiance * (fs + (1.0 - fs) * max(n_dot_l, 0.0)) + sky);
+}
+
+// Light passing through thin grain edges towards a viewer who looks into the light.
+vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
+    float exponent = mix(16.0, 1.0, clamp(u_transmission_roughness, 0.0, 1.0));
+    float forward = pow(max(dot(-v, l), 0.0), exponent);
+    return u_transmission * albedo * irradiance * forward / PI;
+}
+
+struct CloseTerms {
+    vec3 radiance;
+    vec3 glint;
+    vec3 micro_normal;
+    float lod;
+};
+
+CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v) {
+    Footprint f;
+    f.tc = s.uv * u_uv_scale;
+    f.dx = dFdx(f.tc);
+    f.dy = dFdy(f.tc);
+    CloseTerms c;
+    vec3 albedo;
+    vec2 slope;
+    footprint_surface(f, albedo, slope);
+    c.micro_normal = to_world(normalize(vec3(slope, 1.0)), s);
+    vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
+    c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
+
+    vec3 v_t = to_tangent(v, s);
+    c.radiance = vec3(0.0);
+    c.glint = vec3(0.0);
+    vec3 lights[2] = vec3[2](L.sun_direction, L.moon_direction);
+    vec3 irradiances[2] = vec3[2](L.sun_radiance, L.moon_radiance);
+    for (int i = 0; i < 2; ++i) {
+        vec3 l = lights[i];
+        vec3 e = irradiances[i];
+        if (dot(e, e) <= 0.0) continue;
+        vec3 l_t = to_tangent(l, s);
+        float macro_cos = max(l_t.z, 0.0);
+        c.glint += e * (GLINT_GAIN * glint_factor(f, l_t, v_t) * macro_cos);
+        c.radiance += grain_diffuse(albedo, dot(c.micro_normal, l), e, vec3(0.0));
+        c.radiance += grain_transmission(albedo, l, v, e);
+    }
+    c.radiance += grain_diffuse(albedo, 0.0, vec3(0.0), L.sky_irradiance);
+    c.radiance += c.glint;
+    return c;
+}
+
+// ---- far range ----------------------------------------------------------------------------
+
+// d'Eon (2021), the fitted form of the BRDF of a half space of Lambertian spheres, for one
+// channel: kd is the diffuse colour, c the particles' single-scattering albedo mapped from it.
+float lambert_sphere_brdf(float kd, float ui, float uo, float cos_io) {
+    float c = (1.0 - pow(1.0 - kd, 2.73556)) / (1.0 - 0.184096 * pow(1.0 - kd, 2.48423));
+    float u = clamp(-cos_io, -1.0, 1.0);
+    float phase = 2.0 * (sqrt(max(1.0 - u * u, 0.0)) - u * acos(u)) / (3.0 * PI * PI);
+    float single = c * phase / max(ui + uo, 1e-4);
+    float s = sqrt(max((1.0 - ui * ui) * (1.0 - uo * uo), 0.0));
+    // Relative azimuth from cos(io) = ui·uo + s·cos φ; at s → 0 the azimuth is moot.
+    float cos_phi = s > 1e-5 ? clamp((cos_io - ui * uo) / s, -1.0, 1.0) : 1.0;
+    float s_safe = max(s, 1e-5);
+    float multiple = ((acos(cos_phi) + sqrt(ui * uo)) * (c - 0.249978))
+                   / (4.50996 * (acos(min(s_safe, 1.0)) / s_safe + 0.113706))
+                   + pow(max(1.94208 * kd, 0.0), 1.85432);
+    return max(0.995917 * single + 0.0684744 * multiple, 0.0);
+}
+
+vec3 lambert_sphere(vec3 kd, vec3 n, vec3 l, vec3 v) {
+    float ui = dot(n, l), uo = dot(n, v);
+    if (ui <= 0.0 || uo <= 0.0) return vec3(0.0);
+    float cos_io = dot(l, v);
+    // Every channel with its own albedo.
+    return vec3(lambert_sphere_brdf(kd.r, ui, uo, cos_io), lambert_sphere_brdf(kd.g, ui, uo, cos_io),
+                lambert_sphere_brdf(kd.b, ui, uo, cos_io));
+}
+
+// The macro normal with ripples across the dune slope and fine detail.
+vec3 rippled_normal(SurfacePoint s) {
+    // Ripple crests run along the contour lines: the ripple axis is the down-slope direction.
+    vec3 up = vec3(0.0, 1.0, 0.0);
+    vec3 downhill = s.normal - dot(s.normal, up) * up;
+    float slope = length(downhill);
+    vec2 axis_t = vec2(1.0, 0.0);
+    if (slope > 1e-4) {
+        vec2 a = vec2(dot(downhill, s.tangent), dot(downhill, s.bitangent));
+        float len = length(a);
+        axis_t = len > 1e-6 ? a / len : axis_t;
+    }
+    mat2 frame = mat2(axis_t, vec2(-axis_t.y, axis_t.x));  // columns: along, across
+    vec2 ripple_uv = transpose(frame) * s.uv;
+    float steep = smoothstep(0.2, 0.45, slope);
+    vec2 grad_r = mix(texture(u_ripple_shallow, ripple_uv).xy, texture(u_ripple_steep, ripple_uv).xy, steep);
+    vec2 grad = frame * grad_r;
+    grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
+    vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));
+    return to_world(n_t, s);
+}
+
+vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
+    vec3 n = rippled_normal(s);
+    float fe = exp(-u_absorption * u_sss);
+    vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
+    vec3 radiance = fe * kd / PI * L.sky_irradiance * (0.5 + 0.5 * n.y);
+    radiance += fe * lambert_sphere(kd, n, L.sun_direction, v) * L.sun_radiance * max(dot(n, L.sun_direction), 0.0);
+    radiance += fe * lambert_sphere(kd, n, L.moon_direction, v) * L.moon_radiance * max(dot(n, L.moon_direction), 0.0);
+    return radiance;
+}
+
+vec3 shade_lambert(SurfacePoint s, Lighting L) {
+    vec3 kd = u_average_albedo / PI;
+    return kd * (L.sun_radiance * max(dot(s.normal, L.sun_direction), 0.0)
+                 + L.moon_radiance * max(dot(s.normal, L.moon_direction), 0.0) + L.sky_irradiance);
+}
+
+vec3 lod_colour(float t) {
+    return clamp(vec3(2.0 * t - 0.5, 1.0 - abs(2.0 * t - 1.0), 1.5 - 2.0 * t), 0.0, 1.0);
+}
+
+vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
+    vec3 to_eye = L.eye - s.position;
+    float distance_m = length(to_eye);
+    vec3 v = distance_m > 0.0 ? to_eye / distance_m : s.normal;
+    float blend = blend_weight(distance_m);
+
+    if (mode == MODE_BLEND) return vec3(blend);
+    if (mode == MODE_LAMBERT) return shade_lambert(s, L);
+    if (mode == MODE_FAR) return shade_far(s, L, v);
+
+    // Past the cutoff the close term's share is negligible: none of its work is done.
+    if (mode == MODE_FULL && blend > u_close_cutoff) return shade_far(s, L, v);
+    CloseTerms close = shade_close(s, L, v);
+
+    if (mode == MODE_CLOSE) return close.radiance;
+    if (mode == MODE_GLINTS) return close.glint;
+    if (mode == MODE_NORMALS) return close.micro_normal * 0.5 + 0.5;
+    if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
+    vec3 far = blend > 1e-4 ? shade_far(s, L, v) : vec3(0.0);
+    return mix(close.radiance, far, blend);
+}
