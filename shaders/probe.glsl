@@ -23,6 +23,7 @@ in vec3 v_position;
 out vec4 out_radiance;
 
 void main() {
+    if (!sand_covers(v_position, u_eye, u_mode)) discard;
     SurfacePoint s = SurfacePoint(v_position, vec3(0.0, 1.0, 0.0), vec3(1.0, 0.0, 0.0),
                                   vec3(0.0, 0.0, 1.0), v_position.xz);
     out_radiance = vec4(shade_sand(s, scene_lighting(), u_mode), 1.0);

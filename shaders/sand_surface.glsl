@@ -47,8 +47,13 @@ uniform float u_sigmoid_b;
 // 2: none (one tap of the finest level); 3: ground truth (K×K taps of the finest level).
 uniform int u_glint_filter;
 uniform int u_ground_truth_samples;
-// Close-range work is skipped where the blend weight exceeds this (its share is below 1 − it).
+// Close-range work is skipped where the blend weight exceeds this (its share is below 1 − it),
+// which happens beyond u_close_limit metres. Surfaces are drawn twice in full mode: once with
+// this file as is, discarding beyond the limit, and once compiled with SAND_FAR_ONLY, discarding
+// within it; a fragment discarded first costs nothing even on CPU rasterizers, which run both
+// sides of a branch.
 uniform float u_close_cutoff;
+uniform float u_close_limit;
 
 const float PI = 3.14159265358979;
 const float GLINT_GAIN = 5000.0;     // the reference's glint radiance scale
@@ -349,6 +354,16 @@ vec3 lod_colour(float t) {
     return clamp(vec3(2.0 * t - 0.5, 1.0 - abs(2.0 * t - 1.0), 1.5 - 2.0 * t), 0.0, 1.0);
 }
 
+// Whether this program variant shades the point at all (see u_close_limit).
+bool sand_covers(vec3 position, vec3 eye, int mode) {
+    bool beyond = distance(position, eye) > u_close_limit;
+#if defined SAND_FAR_ONLY
+    return mode == MODE_FULL && beyond;
+#else
+    return mode != MODE_FULL || !beyond;
+#endif
+}
+
 vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     vec3 to_eye = L.eye - s.position;
     float distance_m = length(to_eye);
@@ -360,6 +375,9 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     if (mode == MODE_FAR) return shade_far(s, L, v);
 
     // Past the cutoff the close term's share is negligible: none of its work is done.
+#if defined SAND_FAR_ONLY
+    return shade_far(s, L, v);
+#endif
     if (mode == MODE_FULL && blend > u_close_cutoff) return shade_far(s, L, v);
     CloseTerms close = shade_close(s, L, v);
 

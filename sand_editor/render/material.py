@@ -164,6 +164,15 @@ class SandMaterial:
         texel = np.frombuffer(self.albedo.read(level=top), dtype=np.float16).astype(np.float32)
         self.average_albedo = texel[:3].copy()
 
+    @property
+    def close_limit(self) -> float:
+        """Distance (metres) beyond which the blend weight exceeds the close cutoff."""
+        a, b = self.preset.shading.sigmoid_a, self.preset.shading.sigmoid_b
+        cutoff = self.close_cutoff
+        if cutoff >= 1.0:
+            return 1.0e30
+        return float(b + np.log(cutoff / (1.0 - cutoff)) / a)
+
     def bind(self, program, first_unit: int = 0) -> int:
         """Bind the textures and set the uniforms of a program including sand_surface.glsl."""
         if self.preset is None:
@@ -176,12 +185,13 @@ class SandMaterial:
             "u_ripple_shallow": self.ripple_shallow,
             "u_detail": self.detail,
         }
-        unit = first_unit
-        for name, texture in units.items():
+        # Every texture keeps its own unit whether or not a program uses it: programs sharing
+        # these bindings (a surface drawn in near and far passes) then never disagree.
+        for offset, (name, texture) in enumerate(units.items()):
+            texture.use(location=first_unit + offset)
             if name in program:
-                texture.use(location=unit)
-                program[name].value = unit
-                unit += 1
+                program[name].value = first_unit + offset
+        unit = first_unit + len(units)
         shading = self.preset.shading
         values = {uniform: getattr(shading, field) for field, uniform in _SHADING_UNIFORMS.items()}
         values.update(
@@ -191,6 +201,7 @@ class SandMaterial:
             u_glint_filter=GLINT_FILTERS[self.glint_filter],
             u_ground_truth_samples=int(self.ground_truth_samples),
             u_close_cutoff=float(self.close_cutoff),
+            u_close_limit=self.close_limit,
         )
         for name, value in values.items():
             if name in program:

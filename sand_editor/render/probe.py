@@ -27,12 +27,16 @@ class MaterialProbe:
         ctx = self.ctx = material.ctx
         self.width, self.height = width, height
         self.program = program(ctx, "probe.glsl", mode_defines())
+        self.far_program = program(ctx, "probe.glsl", {**mode_defines(), "SAND_FAR_ONLY": 1})
         e = PLANE_HALF_EXTENT
         quad = np.array(
             [[-e, 0, -e], [e, 0, -e], [e, 0, e], [-e, 0, -e], [e, 0, e], [-e, 0, e]], dtype="f4"
         )
         self._buffer = ctx.buffer(quad.tobytes())
-        self._vao = ctx.vertex_array(self.program, [(self._buffer, "3f", "in_position")])
+        self._vaos = [
+            ctx.vertex_array(p, [(self._buffer, "3f", "in_position")])
+            for p in (self.program, self.far_program)
+        ]
         self._colour = ctx.texture((width, height), 4, dtype="f4")
         self._depth = ctx.depth_renderbuffer((width, height))
         self._fbo = ctx.framebuffer([self._colour], self._depth)
@@ -52,8 +56,6 @@ class MaterialProbe:
 
     def render(self, camera: Camera, mode: str = "full") -> tuple[np.ndarray, float]:
         """HDR radiance (height, width, 3), rows top-down, and the GPU time in milliseconds."""
-        p = self.program
-        p["u_view_projection"].write(camera.view_projection.T.astype(np.float32).tobytes())
         sun = self.sun_direction / np.linalg.norm(self.sun_direction)
         lights = {
             "u_eye": camera.position,
@@ -63,18 +65,21 @@ class MaterialProbe:
             "u_moon_radiance": np.zeros(3),
             "u_sky_irradiance": self.sky_irradiance,
         }
-        for name, value in lights.items():
-            if name in p:
-                p[name].value = tuple(float(c) for c in value)
-        p["u_mode"].value = mode_index(mode)
-        self.material.bind(p)
+        for p in (self.program, self.far_program):
+            p["u_view_projection"].write(camera.view_projection.T.astype(np.float32).tobytes())
+            for name, value in lights.items():
+                if name in p:
+                    p[name].value = tuple(float(c) for c in value)
+            p["u_mode"].value = mode_index(mode)
+            self.material.bind(p)
         with drawing_into(self.ctx, self._fbo):
             self.ctx.viewport = (0, 0, self.width, self.height)
             self.ctx.enable(moderngl.DEPTH_TEST)
             self.ctx.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self.ctx.finish()
             start = time.perf_counter()
-            self._vao.render(moderngl.TRIANGLES)
+            for vao in self._vaos:
+                vao.render(moderngl.TRIANGLES)
             self.ctx.finish()
             elapsed_ms = (time.perf_counter() - start) * 1e3
         pixels = np.frombuffer(self._colour.read(), dtype=np.float32).reshape(
@@ -83,5 +88,5 @@ class MaterialProbe:
         return np.ascontiguousarray(pixels[::-1, :, :3]), elapsed_ms
 
     def release(self) -> None:
-        for obj in (self._vao, self._buffer, self._fbo, self._colour, self._depth):
+        for obj in (*self._vaos, self._buffer, self._fbo, self._colour, self._depth):
             obj.release()

@@ -1,0 +1,142 @@
+"""The sand material's behaviour, measured on the flat-plane probe with real GL."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sand_editor.preset import Preset
+from sand_editor.render.material import SandMaterial
+from sand_editor.render.modes import MODES
+from sand_editor.render.probe import MaterialProbe
+
+pytestmark = pytest.mark.gl
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+@pytest.fixture(scope="module")
+def probe(gl_ctx):
+    material = SandMaterial(gl_ctx, 256)
+    material.update(Preset())
+    probe = MaterialProbe(material, 96, 72)
+    yield probe
+    probe.release()
+    material.release()
+
+
+@pytest.fixture(autouse=True)
+def _default_material(probe):
+    probe.material.update(Preset())
+    probe.material.glint_filter = "ours"
+    probe.material.ground_truth_samples = 8
+    yield
+    probe.material.update(Preset())
+    probe.material.glint_filter = "ours"
+
+
+def shade(probe, distance, mode="full", pitch=45.0, **options):
+    image, _ = probe.render(probe.camera(distance, pitch, **options), mode)
+    assert np.isfinite(image).all(), f"{mode} at {distance} m has NaN or inf"
+    return image
+
+
+def test_glints_are_present_close_up(probe):
+    assert shade(probe, 0.1, "glints").max() > 0
+    # Selecting grains of common glint values (μ 0.9) makes many glint, brightly.
+    probe.material.update(Preset().replace(**{"shading.glint_mu": 0.9, "shading.glint_sigma": 0.2}))
+    glints = shade(probe, 0.1, "glints") @ LUMINANCE
+    diffuse = shade(probe, 0.1, "close") @ LUMINANCE - glints
+    assert (glints > 0).mean() > 0.01
+    # Glints are highlights: the brightest are far above the diffuse sand around them.
+    assert glints.max() > 2 * np.median(diffuse)
+
+
+def test_no_glints_far_away_only_the_brdf(probe):
+    far = shade(probe, 30.0, "far")
+    full = shade(probe, 30.0, "full")
+    np.testing.assert_allclose(full, far, rtol=1e-5, atol=1e-6)
+
+
+def test_unselected_grains_do_not_glint(probe):
+    # μ far from every glint value in [0, 1] selects no grain.
+    probe.material.update(Preset().replace(**{"shading.glint_mu": -10.0}))
+    assert shade(probe, 0.1, "glints").max() == 0.0
+
+
+def test_blend_weight_grows_with_distance(probe):
+    means = [shade(probe, d, "blend").mean() for d in (0.05, 0.3, 1.0, 3.0, 10.0)]
+    assert all(a < b for a, b in zip(means, means[1:], strict=False))
+    # Within one grazing view, rows further up the image are further away.
+    image = shade(probe, 2.0, "blend", pitch=10.0)[:, :, 0]
+    rows = image[(image > 0).all(axis=1)].mean(axis=1)  # rows of sand, below the horizon
+    assert rows.size > 10
+    assert np.all(np.diff(rows[::-1]) >= -1e-6)
+
+
+def test_lambert_differs_from_full(probe):
+    full = shade(probe, 0.5, "full")
+    lambert = shade(probe, 0.5, "lambert")
+    assert np.abs(full - lambert).mean() > 0.01 * full.mean()
+    # Lambert is the average colour on the flat macro normal: one value over the plane.
+    assert np.ptp(lambert[..., 0]) < 1e-4
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize(("distance", "pitch"), [(0.001, 45.0), (1000.0, 45.0), (1.0, 1.0)])
+def test_every_mode_is_finite_at_hard_views(probe, mode, distance, pitch):
+    image = shade(probe, distance, mode, pitch)
+    assert image.min() >= 0.0
+
+
+def test_sun_below_the_horizon_is_finite_and_dark(probe):
+    sun, radiance = probe.sun_direction.copy(), probe.sun_radiance.copy()
+    try:
+        probe.sun_direction = np.array([0.0, -0.3, -1.0])
+        probe.sun_radiance = np.zeros(3)
+        for mode in MODES:
+            shade(probe, 0.2, mode)
+        assert shade(probe, 0.2, "glints").max() == 0.0
+    finally:
+        probe.sun_direction, probe.sun_radiance = sun, radiance
+
+
+def test_our_filtering_keeps_glint_energy_where_mipmapped_normals_lose_it(probe):
+    energies = {}
+    for name in ("ground-truth", "ours", "reference"):
+        probe.material.glint_filter = name
+        energies[name] = shade(probe, 3.0, "glints").mean()
+    truth = energies["ground-truth"]
+    assert truth > 0
+    assert abs(energies["ours"] / truth - 1) < 0.35
+    assert abs(energies["ours"] - truth) < abs(energies["reference"] - truth)
+
+
+def test_ours_flickers_less_than_no_filtering(probe):
+    def change(name):
+        probe.material.glint_filter = name
+        frames = [
+            shade(probe, 1.0, "glints", shift_px=(0.37 * t, 0.23 * t)) @ LUMINANCE for t in range(4)
+        ]
+        return np.abs(np.diff(np.stack(frames), axis=0)).mean()
+
+    assert change("ours") < 0.5 * change("none")
+
+
+def test_updates_redo_only_what_changed(probe):
+    material = probe.material
+    grains = material._grains
+    material.update(Preset().replace(**{"shading.glint_shininess": 30.0}))
+    assert material._grains is grains, "a shading change must not regenerate the grains"
+    built = material._built_for
+    material.update(Preset().replace(**{"shading.glint_mu": 0.9}))
+    assert material._grains is grains and material._built_for != built
+    material.update(Preset().replace(**{"generation.seed": 99}))
+    assert material._grains is not grains
+
+
+def test_average_albedo_is_the_tile_mean(probe, gl_ctx):
+    from sand_editor.generator import generate
+
+    tex = generate(Preset(), 256, ctx=gl_ctx)
+    np.testing.assert_allclose(probe.material.average_albedo, tex.average_albedo, rtol=5e-3)
