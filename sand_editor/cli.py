@@ -47,6 +47,38 @@ def _cmd_bake(args) -> int:
     return 0
 
 
+def _size_argument(text: str) -> tuple[int, int]:
+    width, sep, height = text.lower().partition("x")
+    try:
+        size = (int(width), int(height)) if sep else None
+    except ValueError:
+        size = None
+    if size is None or not (1 <= size[0] <= 8192 and 1 <= size[1] <= 8192):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected WIDTHxHEIGHT, each 1 to 8192")
+    return size
+
+
+def _cmd_render(args) -> int:
+    from sand_editor.render.frame import render_frame
+
+    preset = Preset.load(preset_path(args.preset))
+    stats = render_frame(
+        preset,
+        Path(args.out),
+        size=args.size,
+        distance_m=args.distance,
+        time_text=args.time,
+        mode=args.mode,
+        pitch_deg=args.pitch,
+        sphere=args.sphere,
+    )
+    print(
+        f"rendered {preset.name} ({args.mode}) at {args.distance} m, {args.time}, "
+        f"{args.size[0]}×{args.size[1]} into {args.out} in {stats['ms']:.0f} ms"
+    )
+    return 0
+
+
 def _cmd_bench(args) -> int:
     if args.what == "generator":
         from sand_editor.bench.generator import main as bench_generator
@@ -54,6 +86,12 @@ def _cmd_bench(args) -> int:
         return bench_generator(
             quick=args.quick, sizes=args.sizes, json_path=args.json, plot_path=args.plot
         )
+    if args.what == "render":
+        if args.sizes:
+            raise CommandError("--sizes applies to the generator benchmark only")
+        from sand_editor.bench.render import main as bench_render
+
+        return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
     raise CommandError(f"unknown benchmark {args.what!r}")
 
 
@@ -74,8 +112,21 @@ def _parser() -> argparse.ArgumentParser:
     bake.add_argument("--out", required=True, help="output folder (created if missing)")
     bake.set_defaults(run=_cmd_bake)
 
+    from sand_editor.render.modes import MODES
+
+    render = sub.add_parser("render", help="render one frame of the desert headless to a PNG")
+    render.add_argument("preset", help="preset file or bundled preset name")
+    render.add_argument("--out", required=True, help="PNG file to write")
+    render.add_argument("--size", type=_size_argument, default=(1280, 720), help="WIDTHxHEIGHT")
+    render.add_argument("--distance", type=float, default=1.0, help="metres from the sand")
+    render.add_argument("--time", default="10:00", help="time of day, HH:MM")
+    render.add_argument("--mode", choices=MODES, default="full", help="what to show")
+    render.add_argument("--pitch", type=float, default=45.0, help="degrees below the horizon")
+    render.add_argument("--sphere", action="store_true", help="put a sand sphere in view")
+    render.set_defaults(run=_cmd_render)
+
     bench = sub.add_parser("bench", help="measure speed against error")
-    bench.add_argument("what", choices=["generator"], help="what to measure")
+    bench.add_argument("what", choices=["generator", "render"], help="what to measure")
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
     bench.add_argument(
         "--sizes", type=int, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"
@@ -88,7 +139,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    if not argv or (argv[0] not in {"edit", "bake", "bench", "-h", "--help"}):
+    if not argv or (argv[0] not in {"edit", "bake", "render", "bench", "-h", "--help"}):
         argv = ["edit", *argv]
     args = _parser().parse_args(argv)
     try:

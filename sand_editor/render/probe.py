@@ -16,7 +16,7 @@ from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import mode_defines, mode_index
 
-PLANE_HALF_EXTENT = 1.0e5
+PLANE_HALF_EXTENT = 1.0e5  # metres: past the far plane of every probe view
 
 
 class MaterialProbe:
@@ -26,15 +26,21 @@ class MaterialProbe:
         self.material = material
         ctx = self.ctx = material.ctx
         self.width, self.height = width, height
-        self.program = program(ctx, "probe.glsl", mode_defines())
-        self.far_program = program(ctx, "probe.glsl", {**mode_defines(), "SAND_FAR_ONLY": 1})
+        # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz.
+        self.program = program(ctx, "terrain.glsl", mode_defines())
+        self.far_program = program(ctx, "terrain.glsl", {**mode_defines(), "SAND_FAR_ONLY": 1})
         e = PLANE_HALF_EXTENT
-        quad = np.array(
-            [[-e, 0, -e], [e, 0, -e], [e, 0, e], [-e, 0, -e], [e, 0, e], [-e, 0, e]], dtype="f4"
-        )
-        self._buffer = ctx.buffer(quad.tobytes())
+        corners = np.array([[-e, -e], [e, -e], [e, e], [-e, -e], [e, e], [-e, e]])
+        vertices = np.zeros((6, 11), dtype="f4")
+        vertices[:, 0], vertices[:, 2] = corners[:, 0], corners[:, 1]
+        vertices[:, 4] = 1.0  # normal
+        vertices[:, 6] = 1.0  # tangent
+        vertices[:, 9:11] = corners
+        self._buffer = ctx.buffer(vertices.tobytes())
         self._vaos = [
-            ctx.vertex_array(p, [(self._buffer, "3f", "in_position")])
+            ctx.vertex_array(
+                p, [(self._buffer, "3f 3f 3f 2f", "a_position", "a_normal", "a_tangent", "a_uv")]
+            )
             for p in (self.program, self.far_program)
         ]
         self._colour = ctx.texture((width, height), 4, dtype="f4")
@@ -67,6 +73,7 @@ class MaterialProbe:
         }
         for p in (self.program, self.far_program):
             p["u_view_projection"].write(camera.view_projection.T.astype(np.float32).tobytes())
+            p["u_origin"].value = (0.0, 0.0, 0.0)
             for name, value in lights.items():
                 if name in p:
                     p[name].value = tuple(float(c) for c in value)

@@ -58,3 +58,25 @@ def test_bench_command_writes_table_json_and_plot(tmp_path):
     assert rows["ours-gl"]["layer_mismatch"] < 0.005
     assert data["speedup_vs_reference_port"]["64"] > 1
     assert plot_path.stat().st_size > 10_000
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_render_bench_writes_every_key(tmp_path):
+    json_path = tmp_path / "render.json"
+    result = subprocess.run(
+        [sys.executable, "-m", "sand_editor", "bench", "render", "--quick",
+         "--json", str(json_path)],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    data = json.loads(json_path.read_text())
+    for key in ("curves", "default_relative_error", "flicker", "cost_vs_reference_7x7",
+                "stereo_ms_per_megapixel"):  # fmt: skip
+        assert key in data
+    for per_distance in data["curves"].values():
+        for row in per_distance.values():
+            assert np.isfinite([row["mae"], row["ms"], row["glint_energy_rel_error"]]).all()
+    assert set(data["flicker"]) >= {"none", "reference", "ours"}
+    assert data["flicker"]["ours"] < data["flicker"]["none"]
+    assert 0 < data["cost_vs_reference_7x7"] < 1

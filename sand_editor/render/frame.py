@@ -1,0 +1,79 @@
+"""One headless frame of the desert, written to a PNG: ``sand-editor render``."""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from PIL import Image
+
+from sand_editor.gl import standalone_context
+from sand_editor.preset import Preset
+from sand_editor.render.camera import camera_at_distance
+from sand_editor.render.material import SandMaterial
+from sand_editor.render.modes import check_mode
+from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.sky import parse_time, sky_at
+
+MIN_DISTANCE_M = 1e-3
+MAX_DISTANCE_M = 1e4
+
+
+def check_view(distance_m: float, pitch_deg: float) -> None:
+    if not (math.isfinite(distance_m) and MIN_DISTANCE_M <= distance_m <= MAX_DISTANCE_M):
+        raise ValueError(
+            f"distance {distance_m} m is out of range; allowed {MIN_DISTANCE_M} to {MAX_DISTANCE_M}"
+        )
+    if not (math.isfinite(pitch_deg) and 1.0 <= pitch_deg <= 90.0):
+        raise ValueError(f"pitch {pitch_deg}° is out of range; allowed 1 to 90 degrees")
+
+
+def render_frame(
+    preset: Preset,
+    out: Path,
+    size: tuple[int, int] = (1280, 720),
+    distance_m: float = 1.0,
+    time_text: str = "10:00",
+    mode: str = "full",
+    pitch_deg: float = 45.0,
+    sphere: bool = False,
+) -> dict:
+    """Render one frame and write it atomically as an sRGB PNG; returns timing."""
+    check_mode(mode)
+    check_view(distance_m, pitch_deg)
+    sky = sky_at(parse_time(time_text))
+    ctx = standalone_context()
+    material = SandMaterial(ctx)
+    material.update(preset)
+    renderer = SandRenderer(ctx)
+    renderer.set_material(material)
+    width, height = size
+    terrain = renderer.terrain
+    camera = camera_at_distance(
+        distance_m,
+        pitch_deg,
+        width / height,
+        ground_height=lambda x, z: float(terrain.height(x, z)),
+    )
+    start = time.perf_counter()
+    pixels = renderer.render_to_array(width, height, camera, sky, mode, show_sphere=sphere)
+    elapsed_ms = (time.perf_counter() - start) * 1e3
+    buffer = io.BytesIO()
+    Image.fromarray(pixels).save(buffer, format="PNG")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    handle = tempfile.NamedTemporaryFile(dir=out.parent, prefix=f".{out.name}.", delete=False)
+    try:
+        with handle:
+            handle.write(buffer.getvalue())
+        os.chmod(handle.name, 0o644)
+        os.replace(handle.name, out)
+    except BaseException:
+        Path(handle.name).unlink(missing_ok=True)
+        raise
+    renderer.release()
+    material.release()
+    return {"ms": elapsed_ms}

@@ -1,0 +1,138 @@
+"""HDR scene target, bloom and tone mapping (``shaders/post.glsl``).
+
+Bloom has no threshold: every pixel spreads a small share of its energy (Jimenez 2014, as in
+Call of Duty: Advanced Warfare), so glints bloom because they are bright, not because they pass a
+cut-off that would make them pop in and out.
+"""
+
+from __future__ import annotations
+
+import moderngl
+
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
+
+BLOOM_LEVELS = 5
+DEFAULT_BLOOM_STRENGTH = 0.04
+UPSAMPLE_RADIUS = 1.0  # source texels between the tent's taps
+
+
+class PostChain:
+    """Owns the HDR scene framebuffer (RGBA16F + depth) and the bloom chain of one size."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self.size: tuple[int, int] | None = None
+        self.scene_texture: moderngl.Texture | None = None
+        self.depth_texture: moderngl.Texture | None = None
+        self.scene_framebuffer: moderngl.Framebuffer | None = None
+        self._levels: list[tuple[moderngl.Texture, moderngl.Framebuffer]] = []
+        self._downsample = fullscreen_program(ctx, "post.glsl", {"BLOOM_DOWNSAMPLE": 1})
+        self._upsample = fullscreen_program(ctx, "post.glsl", {"BLOOM_UPSAMPLE": 1})
+        self._resolve = fullscreen_program(ctx, "post.glsl", {"RESOLVE": 1})
+
+    def resize(self, width: int, height: int) -> None:
+        """Reallocate the targets for a ``width`` × ``height`` frame (no-op when unchanged)."""
+        width, height = int(width), int(height)
+        if width < 1 or height < 1:
+            raise ValueError(f"PostChain.resize: size must be positive, got {width}×{height}")
+        if self.size == (width, height):
+            return
+        self._release_targets()
+        ctx = self.ctx
+        self.scene_texture = self._hdr_texture((width, height))
+        self.depth_texture = ctx.depth_texture((width, height))
+        self.scene_framebuffer = ctx.framebuffer([self.scene_texture], self.depth_texture)
+        for level in range(BLOOM_LEVELS):
+            size = (max(1, width >> (level + 1)), max(1, height >> (level + 1)))
+            texture = self._hdr_texture(size)
+            self._levels.append((texture, ctx.framebuffer([texture])))
+        self.size = (width, height)
+
+    def _hdr_texture(self, size: tuple[int, int]) -> moderngl.Texture:
+        texture = self.ctx.texture(size, 4, dtype="f2")
+        texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        texture.repeat_x = texture.repeat_y = False
+        return texture
+
+    def bloom(self) -> None:
+        """Fill the bloom chain from the scene: level 0 ends up holding the sum of all levels."""
+        ctx = self.ctx
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        source = self.scene_texture
+        for texture, framebuffer in self._levels:
+            self._pass(self._downsample, source, framebuffer, texture.size)
+            source = texture
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        try:
+            self._upsample["u_radius"].value = UPSAMPLE_RADIUS
+            for (texture, _), (_, larger) in zip(
+                reversed(self._levels[1:]), reversed(self._levels[:-1]), strict=True
+            ):
+                self._pass(self._upsample, texture, larger, larger.size)
+        finally:
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+            ctx.disable(moderngl.BLEND)
+
+    def finish(
+        self,
+        target_fbo: moderngl.Framebuffer,
+        viewport: tuple[int, int, int, int],
+        exposure: float,
+        bloom_strength: float = DEFAULT_BLOOM_STRENGTH,
+        tone_map: bool = True,
+    ) -> None:
+        """Resolve the scene into ``viewport`` of ``target_fbo``: bloom, exposure, ACES and sRGB
+        encoding; with ``tone_map=False`` the scene's values are written as they are, clamped to
+        [0, 1] (debug views)."""
+        if self.scene_framebuffer is None:
+            raise RuntimeError("PostChain.finish before resize")
+        use_bloom = tone_map and bloom_strength > 0
+        if use_bloom:
+            self.bloom()
+        ctx = self.ctx
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        program = self._resolve
+        bloom_texture = self._levels[0][0]
+        bloom_texture.use(location=1)
+        set_uniform(program, "u_bloom", 1)
+        set_uniform(program, "u_bloom_strength", float(bloom_strength) if use_bloom else 0.0)
+        set_uniform(program, "u_bloom_normalisation", 1.0 / BLOOM_LEVELS)
+        set_uniform(program, "u_exposure", float(exposure))
+        set_uniform(program, "u_tone_map", bool(tone_map))
+        saved_viewport = target_fbo.viewport
+        try:
+            self._pass(program, self.scene_texture, target_fbo, viewport[2:], viewport[:2])
+        finally:
+            target_fbo.viewport = saved_viewport
+
+    def _pass(self, program, source, framebuffer, size, offset=(0, 0)) -> None:
+        source.use(location=0)
+        set_uniform(program, "u_source", 0)
+        set_uniform(program, "u_source_texel", (1.0 / source.size[0], 1.0 / source.size[1]))
+        set_uniform(program, "u_viewport", (*(float(v) for v in offset), *(float(v) for v in size)))
+        with drawing_into(self.ctx, framebuffer):
+            self.ctx.viewport = (*offset, *size)
+            draw_fullscreen(self.ctx, program)
+
+    def _release_targets(self) -> None:
+        for obj in (self.scene_framebuffer, self.scene_texture, self.depth_texture):
+            if obj is not None:
+                obj.release()
+        for texture, framebuffer in self._levels:
+            framebuffer.release()
+            texture.release()
+        self._levels = []
+        self.scene_framebuffer = self.scene_texture = self.depth_texture = None
+        self.size = None
+
+    def release(self) -> None:
+        self._release_targets()
+        for program in (self._downsample, self._upsample, self._resolve):
+            program.release()
+
+
+def set_uniform(program, name: str, value) -> None:
+    """Set a uniform the compiler kept; an unused one is optimised out, which is not an error."""
+    if name in program:
+        program[name].value = value

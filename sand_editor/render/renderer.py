@@ -1,0 +1,302 @@
+"""The scene renderer: sky, dune terrain (and a test sphere) in the sand material, bloom and tone
+mapping, into any moderngl framebuffer. Qt-free: the editor's preview, the VR viewer and the
+command line all draw through this class."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import moderngl
+import numpy as np
+
+from sand_editor.gl import drawing_into, program
+from sand_editor.render.camera import Camera
+from sand_editor.render.modes import check_mode, mode_defines, mode_index
+from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain, set_uniform
+from sand_editor.render.sky import SKY_GRADIENT_EXPONENT, SkyState
+from sand_editor.render.terrain import DuneTerrain, sphere_mesh
+
+DEBUG_MODES = frozenset({"blend", "normals", "mip"})
+GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the horizon
+SUN_ANGULAR_RADIUS = math.radians(0.6)  # twice the real sun: readable on small previews
+MOON_ANGULAR_RADIUS = math.radians(0.6)
+TERRAIN_SEGMENTS = 96
+# Exposure ∝ (scene light)^−EXPOSURE_ADAPTATION: partial adaptation keeps night darker than day.
+EXPOSURE_ADAPTATION = 0.5
+EXPOSURE_KEY = 2.8
+_VERTEX_FORMAT = "3f 3f 3f 2f"
+_VERTEX_ATTRIBUTES = ("a_position", "a_normal", "a_tangent", "a_uv")
+
+
+def auto_exposure(sky: SkyState) -> float:
+    """Exposure for the light on an upward surface: sun and moon on it, plus the sky."""
+    light = (
+        sky.sun_radiance * max(float(sky.sun_direction[1]), 0.0)
+        + sky.moon_radiance * max(float(sky.moon_direction[1]), 0.0)
+        + sky.sky_irradiance
+    )
+    luminance = float(np.dot(light, (0.2126, 0.7152, 0.0722)))
+    return float(np.clip(EXPOSURE_KEY / max(luminance, 1e-6) ** EXPOSURE_ADAPTATION, 1e-2, 1e3))
+
+
+class _Mesh:
+    """Vertex arrays of a mesh dict (``position`` relative to ``origin``), one per program."""
+
+    def __init__(self, ctx: moderngl.Context, programs, mesh: dict, origin: np.ndarray) -> None:
+        vertices = np.hstack([mesh["position"], mesh["normal"], mesh["tangent"], mesh["uv"]])
+        self.origin = origin
+        self.buffer = ctx.buffer(vertices.astype(np.float32).tobytes())
+        self.index = ctx.buffer(mesh["index"].astype(np.uint32).tobytes())
+        self.vaos = [
+            ctx.vertex_array(
+                prog,
+                [(self.buffer, _VERTEX_FORMAT, *_VERTEX_ATTRIBUTES)],
+                index_buffer=self.index,
+                index_element_size=4,
+            )
+            for prog in programs
+        ]
+        self.triangles = len(mesh["index"]) // 3
+
+    def release(self) -> None:
+        for obj in (*self.vaos, self.buffer, self.index):
+            obj.release()
+
+
+class SandRenderer:
+    """Draws the desert in the sand material.
+
+    ``show_sphere`` puts a sand-covered sphere on the ground near what the camera looks at.
+    """
+
+    def __init__(self, ctx: moderngl.Context, terrain: DuneTerrain | None = None) -> None:
+        self.ctx = ctx
+        self.terrain = terrain or DuneTerrain()
+        self.material = None
+        self.show_sphere = False
+        self.bloom_strength = DEFAULT_BLOOM_STRENGTH
+        self.post = PostChain(ctx)
+        # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
+        # shades what lies within the material's close range, the far one only the far term.
+        self._surface = program(ctx, "terrain.glsl", mode_defines())
+        self._surface_far = program(ctx, "terrain.glsl", {**mode_defines(), "SAND_FAR_ONLY": 1})
+        self._surfaces = (self._surface, self._surface_far)
+        self._sky = program(ctx, "sky.glsl")
+        self._sky_vao = ctx.vertex_array(self._sky, [])
+        self._terrain_mesh: _Mesh | None = None
+        self._terrain_key = None
+        self._sphere_mesh: _Mesh | None = None
+        self._sphere_key = None
+        self._readback: moderngl.Framebuffer | None = None
+
+    def set_material(self, material) -> None:
+        """The ``SandMaterial`` (anything with ``bind(program, first_unit) -> int``)."""
+        self.material = material
+
+    # ---- frame ------------------------------------------------------------------------------
+
+    def render(
+        self,
+        target: moderngl.Framebuffer,
+        camera: Camera,
+        sky: SkyState,
+        mode: str = "full",
+        viewport: tuple[int, int, int, int] | None = None,
+        exposure: float | None = None,
+        show_sphere: bool | None = None,
+    ) -> dict:
+        """Draw one frame into ``viewport`` of ``target`` (its whole area by default).
+
+        Debug modes (``blend``, ``normals``, ``mip``) write the material's values unexposed and
+        unblended, over black. Returns CPU milliseconds per stage and the exposure used.
+        """
+        check_mode(mode)
+        debug = mode in DEBUG_MODES
+        viewport = tuple(int(v) for v in (viewport or (0, 0, *target.size)))
+        exposure = auto_exposure(sky) if exposure is None else float(exposure)
+        ctx = self.ctx
+        times = {}
+        start = time.perf_counter()
+        self.post.resize(viewport[2], viewport[3])
+        scene = self.post.scene_framebuffer
+        eye = camera.eye
+
+        with drawing_into(ctx, scene):
+            ctx.viewport = (0, 0, *self.post.size)
+            scene.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+            if not debug:
+                self._draw_sky(camera, sky)
+            times["sky_ms"] = _lap(start)
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+            try:
+                self._prepare_surface(camera, sky, mode)
+                self._draw(self._terrain(eye), camera)
+                if self.show_sphere if show_sphere is None else show_sphere:
+                    sphere = self._sphere(camera)
+                    if sphere is not None:
+                        self._draw(sphere, camera)
+            finally:
+                ctx.disable(moderngl.DEPTH_TEST)
+            times["surface_ms"] = _lap(start) - times["sky_ms"]
+        self.post.finish(
+            target,
+            viewport,
+            exposure,
+            bloom_strength=0.0 if debug else self.bloom_strength,
+            tone_map=not debug,
+        )
+        times["post_ms"] = _lap(start) - times["sky_ms"] - times["surface_ms"]
+        times["exposure"] = exposure
+        return times
+
+    def render_to_array(
+        self, width: int, height: int, camera: Camera, sky: SkyState, mode: str = "full", **options
+    ) -> np.ndarray:
+        """The frame as an (height, width, 3) uint8 array, rows top-down."""
+        if self._readback is None or self._readback.size != (width, height):
+            self._release_readback()
+            texture = self.ctx.texture((width, height), 4)
+            self._readback = self.ctx.framebuffer([texture])
+        self.render(self._readback, camera, sky, mode, **options)
+        data = self._readback.read(components=3, alignment=1)
+        image = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)
+        return image[::-1].copy()
+
+    # ---- passes -----------------------------------------------------------------------------
+
+    def _draw_sky(self, camera: Camera, sky: SkyState) -> None:
+        rotation_only = camera.view.astype(np.float64).copy()
+        rotation_only[:3, 3] = 0.0
+        inverse = np.linalg.inv(camera.projection.astype(np.float64) @ rotation_only)
+        prog = self._sky
+        values = {
+            "u_inverse_view_projection": _matrix(inverse),
+            "u_resolution": tuple(float(v) for v in self.post.size),
+            "u_sun_direction": _vec(sky.sun_direction),
+            "u_sun_radiance": _vec(sky.sun_radiance),
+            "u_moon_direction": _vec(sky.moon_direction),
+            "u_moon_radiance": _vec(sky.moon_radiance),
+            "u_sky_zenith": _vec(sky.sky_zenith),
+            "u_sky_horizon": _vec(sky.sky_horizon),
+            "u_sky_irradiance": _vec(sky.sky_irradiance),
+            "u_ground_albedo": GROUND_ALBEDO,
+            "u_star_visibility": float(sky.star_visibility),
+            "u_gradient_exponent": SKY_GRADIENT_EXPONENT,
+            "u_sun_radius": SUN_ANGULAR_RADIUS,
+            "u_moon_radius": MOON_ANGULAR_RADIUS,
+        }
+        for name, value in values.items():
+            set_uniform(prog, name, value)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def _prepare_surface(self, camera: Camera, sky: SkyState, mode: str) -> None:
+        for prog in self._surfaces:
+            self._prepare_program(prog, camera, sky, mode)
+
+    def _prepare_program(self, prog, camera: Camera, sky: SkyState, mode: str) -> None:
+        if self.material is not None:
+            self.material.bind(prog, 0)
+        values = {
+            "u_mode": mode_index(mode),
+            "u_eye": _vec(camera.position),
+            "u_sun_direction": _vec(sky.sun_direction),
+            "u_sun_radiance": _vec(sky.sun_radiance),
+            "u_moon_direction": _vec(sky.moon_direction),
+            "u_moon_radiance": _vec(sky.moon_radiance),
+            "u_sky_irradiance": _vec(sky.sky_irradiance),
+        }
+        for name, value in values.items():
+            set_uniform(prog, name, value)
+
+    def _draw(self, mesh: _Mesh, camera: Camera) -> None:
+        # Vertices are offsets from the mesh origin, and so is the eye in this matrix: small
+        # numbers that keep their precision in float32 anywhere in the desert.
+        view_projection = camera.projection.astype(np.float64) @ camera.view_relative_to(
+            mesh.origin
+        )
+        for prog, vao in zip(self._surfaces, mesh.vaos, strict=True):
+            set_uniform(prog, "u_view_projection", _matrix(view_projection))
+            set_uniform(prog, "u_origin", _vec(mesh.origin))
+            vao.render(moderngl.TRIANGLES)
+
+    # ---- meshes -----------------------------------------------------------------------------
+
+    def _terrain(self, eye: np.ndarray) -> _Mesh:
+        """Rings centred below the eye, finest where the eye is closest to the ground; rebuilt
+        only when the eye has moved by a fraction of the finest ring spacing, or its height
+        above the ground changed by a factor of two."""
+        ground = float(self.terrain.height(eye[0], eye[2]))
+        clearance = max(float(eye[1]) - ground, 1e-6)
+        inner = 2.0 ** math.floor(math.log2(min(max(0.1 * clearance, 1e-6), 0.5)))
+        snap = 2.0 * inner
+        center = (round(eye[0] / snap) * snap, round(eye[2] / snap) * snap)
+        # High above the dunes the horizon lies far away: the desert reaches it.
+        outer = max(self.terrain.extent_m, 2.0 ** math.ceil(math.log2(50.0 * clearance)))
+        key = (inner, center, outer)
+        if key != self._terrain_key:
+            origin = np.array([center[0], float(self.terrain.height(*center)), center[1]])
+            mesh = self.terrain.radial_mesh(center, inner, outer, TERRAIN_SEGMENTS, origin=origin)
+            if self._terrain_mesh is not None:
+                self._terrain_mesh.release()
+            self._terrain_mesh = _Mesh(self.ctx, self._surfaces, mesh, origin)
+            self._terrain_key = key
+        return self._terrain_mesh
+
+    def _sphere(self, camera: Camera) -> _Mesh | None:
+        """A sphere resting on the ground beside the point at the centre of the view, sized to
+        the distance to it so it reads from a millimetre to a kilometre."""
+        eye = camera.eye
+        hit = self.terrain.ray_hit(eye, camera.forward, 10.0 * self.terrain.extent_m)
+        if hit is None:
+            return None
+        distance = float(np.linalg.norm(hit - eye))
+        radius = 0.15 * distance
+        side = np.cross(camera.forward.astype(np.float64), (0.0, 1.0, 0.0))
+        side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([1, 0, 0])
+        x, z = hit[0] + 0.35 * distance * side[0], hit[2] + 0.35 * distance * side[2]
+        center = np.array([x, float(self.terrain.height(x, z)) + radius, z])
+        key = tuple(np.round(center / max(radius * 1e-3, 1e-9)).astype(np.int64)) + (radius,)
+        if key != self._sphere_key:
+            mesh = sphere_mesh(center, radius, 32, origin=center)
+            if self._sphere_mesh is not None:
+                self._sphere_mesh.release()
+            self._sphere_mesh = _Mesh(self.ctx, self._surfaces, mesh, center)
+            self._sphere_key = key
+        return self._sphere_mesh
+
+    # ---- lifetime ---------------------------------------------------------------------------
+
+    def _release_readback(self) -> None:
+        if self._readback is not None:
+            for texture in self._readback.color_attachments:
+                texture.release()
+            self._readback.release()
+            self._readback = None
+
+    def release(self) -> None:
+        for mesh in (self._terrain_mesh, self._sphere_mesh):
+            if mesh is not None:
+                mesh.release()
+        self._terrain_mesh = self._sphere_mesh = None
+        self._terrain_key = self._sphere_key = None
+        self._release_readback()
+        self._sky_vao.release()
+        self._sky.release()
+        self._surface.release()
+        self._surface_far.release()
+        self.post.release()
+
+
+def _matrix(m: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(v) for v in np.asarray(m, dtype=np.float64).T.ravel())
+
+
+def _vec(v) -> tuple[float, float, float]:
+    return tuple(float(c) for c in np.asarray(v).ravel()[:3])
+
+
+def _lap(start: float) -> float:
+    return (time.perf_counter() - start) * 1000.0

@@ -1,0 +1,96 @@
+#version 330 core
+// Post-processing of the HDR scene, one program per define: BLOOM_DOWNSAMPLE (13 taps),
+// BLOOM_UPSAMPLE (3×3 tent, added onto the next larger level), and RESOLVE (bloom mix, exposure,
+// ACES tone mapping and sRGB encoding into the caller's framebuffer, or raw values for debug
+// views). Drawn with the fullscreen triangle of fullscreen.vert.
+
+uniform sampler2D u_source;
+uniform vec2 u_source_texel;   // 1 / size of u_source
+uniform vec4 u_viewport;       // x, y, width, height of the output in window pixels
+
+out vec4 out_colour;
+
+vec2 output_uv() {
+    return (gl_FragCoord.xy - u_viewport.xy) / u_viewport.zw;
+}
+
+#if defined BLOOM_DOWNSAMPLE
+
+// Jimenez (2014): 13 taps as five overlapping 4-texel boxes, which keeps a moving bright pixel
+// from flickering as it crosses texel boundaries.
+void main() {
+    vec2 uv = output_uv();
+    vec2 t = u_source_texel;
+    vec3 a = texture(u_source, uv + t * vec2(-2.0, 2.0)).rgb;
+    vec3 b = texture(u_source, uv + t * vec2(0.0, 2.0)).rgb;
+    vec3 c = texture(u_source, uv + t * vec2(2.0, 2.0)).rgb;
+    vec3 d = texture(u_source, uv + t * vec2(-2.0, 0.0)).rgb;
+    vec3 e = texture(u_source, uv).rgb;
+    vec3 f = texture(u_source, uv + t * vec2(2.0, 0.0)).rgb;
+    vec3 g = texture(u_source, uv + t * vec2(-2.0, -2.0)).rgb;
+    vec3 h = texture(u_source, uv + t * vec2(0.0, -2.0)).rgb;
+    vec3 i = texture(u_source, uv + t * vec2(2.0, -2.0)).rgb;
+    vec3 j = texture(u_source, uv + t * vec2(-1.0, 1.0)).rgb;
+    vec3 k = texture(u_source, uv + t * vec2(1.0, 1.0)).rgb;
+    vec3 l = texture(u_source, uv + t * vec2(-1.0, -1.0)).rgb;
+    vec3 m = texture(u_source, uv + t * vec2(1.0, -1.0)).rgb;
+    vec3 colour = e * 0.125 + (a + c + g + i) * 0.03125 + (b + d + f + h) * 0.0625
+                + (j + k + l + m) * 0.125;
+    out_colour = vec4(max(colour, 0.0), 1.0);
+}
+
+#elif defined BLOOM_UPSAMPLE
+
+uniform float u_radius;  // in source texels
+
+void main() {
+    vec2 uv = output_uv();
+    vec2 t = u_source_texel * u_radius;
+    vec3 colour = texture(u_source, uv).rgb * 4.0;
+    colour += (texture(u_source, uv + vec2(-t.x, 0.0)).rgb + texture(u_source, uv + vec2(t.x, 0.0)).rgb
+             + texture(u_source, uv + vec2(0.0, -t.y)).rgb + texture(u_source, uv + vec2(0.0, t.y)).rgb) * 2.0;
+    colour += texture(u_source, uv + vec2(-t.x, -t.y)).rgb + texture(u_source, uv + vec2(t.x, -t.y)).rgb
+            + texture(u_source, uv + vec2(-t.x, t.y)).rgb + texture(u_source, uv + vec2(t.x, t.y)).rgb;
+    out_colour = vec4(colour / 16.0, 1.0);
+}
+
+#elif defined RESOLVE
+
+uniform sampler2D u_bloom;
+uniform float u_bloom_strength;
+uniform float u_bloom_normalisation;  // 1 / number of levels summed into u_bloom
+uniform float u_exposure;
+uniform bool u_tone_map;              // false: debug values, written clamped and unencoded
+
+// Stephen Hill's fit of the ACES RRT + ODT (sRGB primaries in and out).
+const mat3 ACES_INPUT = mat3(0.59719, 0.07600, 0.02840, 0.35458, 0.90834, 0.13383,
+                             0.04823, 0.01566, 0.83777);
+const mat3 ACES_OUTPUT = mat3(1.60475, -0.10208, -0.00327, -0.53108, 1.10813, -0.07276,
+                              -0.07367, -0.00605, 1.07602);
+
+vec3 aces_fitted(vec3 colour) {
+    colour = ACES_INPUT * colour;
+    vec3 a = colour * (colour + 0.0245786) - 0.000090537;
+    vec3 b = colour * (0.983729 * colour + 0.4329510) + 0.238081;
+    return clamp(ACES_OUTPUT * (a / b), 0.0, 1.0);
+}
+
+vec3 srgb_encode(vec3 linear) {
+    vec3 low = linear * 12.92;
+    vec3 high = 1.055 * pow(linear, vec3(1.0 / 2.4)) - 0.055;
+    return mix(high, low, lessThanEqual(linear, vec3(0.0031308)));
+}
+
+void main() {
+    vec2 uv = output_uv();
+    vec3 scene = texture(u_source, uv).rgb;
+    if (!u_tone_map) {
+        out_colour = vec4(clamp(scene, 0.0, 1.0), 1.0);
+        return;
+    }
+    vec3 bloom = texture(u_bloom, uv).rgb * u_bloom_normalisation;
+    vec3 hdr = mix(scene, bloom, u_bloom_strength) * u_exposure;
+    out_colour = vec4(srgb_encode(aces_fitted(max(hdr, 0.0))), 1.0);
+}
+
+#endif
