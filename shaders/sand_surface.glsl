@@ -59,6 +59,7 @@ const float PI = 3.14159265358979;
 const float GLINT_GAIN = 5000.0;     // the reference's glint radiance scale
 const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
+const float MIN_FACING = 0.05;       // least n·v of a shading normal
 
 #define FILTER_OURS 0
 #define FILTER_REFERENCE 1
@@ -151,19 +152,40 @@ struct Footprint {
     vec2 dy;
 };
 
-// The expected glint factor (before light, gain and cosine) of one light over the footprint.
-float glint_factor(Footprint f, vec3 l_t, vec3 v_t) {
-    vec2 b_half;
-    float v_dot_h;
-    if (l_t.z <= 0.0 || v_t.z <= 0.0 || !half_slope(l_t, v_t, b_half, v_dot_h)) return 0.0;
-    float variance = lobe_variance(b_half);
-    float glint = 0.0;
+// One light's half vector, as the glint lobe needs it.
+struct HalfVector {
+    bool valid;      // the light and the eye are above the surface and some grain can mirror
+    vec2 slope;      // of the half vector, in tangent space
+    float variance;  // of the lobe about it, in slope space
+    float fresnel;
+};
+
+HalfVector half_vector(vec3 l_t, vec3 v_t) {
+    HalfVector h;
+    float v_dot_h = 0.0;
+    h.valid = l_t.z > 0.0 && v_t.z > 0.0 && half_slope(l_t, v_t, h.slope, v_dot_h);
+    h.variance = lobe_variance(h.valid ? h.slope : vec2(0.0));
+    h.fresnel = glint_fresnel(v_dot_h);
+    return h;
+}
+
+vec2 lobes(HalfVector h0, HalfVector h1, vec2 b) {
+    return vec2(h0.valid ? glint_lobe(b, h0.slope, h0.variance) : 0.0,
+                h1.valid ? glint_lobe(b, h1.slope, h1.variance) : 0.0);
+}
+
+// The expected glint factors (before light, gain and cosine) of two lights over the footprint.
+// Every filter fetches its taps once for both lights: they do not depend on the light.
+vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1) {
+    if (!h0.valid && !h1.valid) return vec2(0.0);
+    vec2 glint = vec2(0.0);
     if (u_glint_filter == FILTER_OURS) {
-        // The footprint of the reference's N×N kernel, in one anisotropic trilinear fetch.
+        // The footprint of the reference's N×N kernel, in one trilinear fetch.
         float widen = max(1.0, float(u_sample_count) * u_sample_spread);
         vec4 gm = textureGrad(u_glint_moments, f.tc, f.dx * widen, f.dy * widen);
         vec4 sm = textureGrad(u_spread_moments, f.tc, f.dx * widen, f.dy * widen);
-        glint = expected_glint(gm, sm, b_half, variance);
+        glint = vec2(h0.valid ? expected_glint(gm, sm, h0.slope, h0.variance) : 0.0,
+                     h1.valid ? expected_glint(gm, sm, h1.slope, h1.variance) : 0.0);
     } else if (u_glint_filter == FILTER_REFERENCE) {
         // N×N taps spaced by spread × the pixel's derivatives, Gaussian-weighted; each tap
         // evaluates the lobe at the mip-averaged normal and the selection at the averaged g.
@@ -178,15 +200,14 @@ float glint_factor(Footprint f, vec3 l_t, vec3 v_t) {
                 vec2 tc = f.tc + u_sample_spread * (o.x * f.dx + o.y * f.dy);
                 vec2 b = textureGrad(u_spread_moments, tc, f.dx, f.dy).zw;
                 float g = textureGrad(u_albedo, tc, f.dx, f.dy).a;
-                glint += weight * glint_lobe(b, b_half, variance) * glint_selection(g);
+                glint += weight * glint_selection(g) * lobes(h0, h1, b);
                 total += weight;
             }
         }
         glint /= total;
     } else if (u_glint_filter == FILTER_NONE) {
-        vec4 gm = textureLod(u_glint_moments, f.tc, 0.0);
-        vec4 sm = textureLod(u_spread_moments, f.tc, 0.0);
-        glint = gm.x < 1e-6 ? 0.0 : gm.x * glint_lobe(sm.zw, b_half, variance);
+        float w = textureLod(u_glint_moments, f.tc, 0.0).x;
+        glint = w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, textureLod(u_spread_moments, f.tc, 0.0).zw);
     } else {
         // Ground truth: K×K jittered stratified taps of the finest level across the pixel.
         int k = max(u_ground_truth_samples, 1);
@@ -194,14 +215,14 @@ float glint_factor(Footprint f, vec3 l_t, vec3 v_t) {
             for (int i = 0; i < k; ++i) {
                 vec2 o = stratum_offset(i, j, k);
                 vec2 tc = f.tc + o.x * f.dx + o.y * f.dy;
-                vec4 gm = textureLod(u_glint_moments, tc, 0.0);
+                float w = textureLod(u_glint_moments, tc, 0.0).x;
                 vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
-                glint += gm.x < 1e-6 ? 0.0 : gm.x * glint_lobe(b, b_half, variance);
+                glint += w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, b);
             }
         }
         glint /= float(k * k);
     }
-    return glint * glint_fresnel(v_dot_h);
+    return glint * vec2(h0.fresnel, h1.fresnel);
 }
 
 // Albedo and mean slope of the footprint (the ground truth averages its finest-level taps).
@@ -269,15 +290,13 @@ CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v) {
     c.glint = vec3(0.0);
     vec3 lights[2] = vec3[2](L.sun_direction, L.moon_direction);
     vec3 irradiances[2] = vec3[2](L.sun_radiance, L.moon_radiance);
+    vec3 l_t[2] = vec3[2](to_tangent(lights[0], s), to_tangent(lights[1], s));
+    vec2 glints = glint_factors(f, half_vector(l_t[0], v_t), half_vector(l_t[1], v_t));
     for (int i = 0; i < 2; ++i) {
-        vec3 l = lights[i];
         vec3 e = irradiances[i];
-        if (dot(e, e) <= 0.0) continue;
-        vec3 l_t = to_tangent(l, s);
-        float macro_cos = max(l_t.z, 0.0);
-        c.glint += e * (GLINT_GAIN * glint_factor(f, l_t, v_t) * macro_cos);
-        c.radiance += grain_diffuse(albedo, dot(c.micro_normal, l), e, vec3(0.0));
-        c.radiance += grain_transmission(albedo, l, v, e);
+        c.glint += e * (GLINT_GAIN * glints[i] * max(l_t[i].z, 0.0));
+        c.radiance += grain_diffuse(albedo, dot(c.micro_normal, lights[i]), e, vec3(0.0));
+        c.radiance += grain_transmission(albedo, lights[i], v, e);
     }
     c.radiance += grain_diffuse(albedo, 0.0, vec3(0.0), L.sky_irradiance);
     c.radiance += c.glint;
@@ -336,6 +355,11 @@ vec3 rippled_normal(SurfacePoint s) {
 
 vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     vec3 n = rippled_normal(s);
+    // At grazing views a ripple's back can face away from the eye, where the BRDF is 0: a hard
+    // dark patch that no real ripple shows (its back would be hidden by its crest). Bend such
+    // normals just far enough towards the eye.
+    float facing = dot(n, v);
+    if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
     float fe = exp(-u_absorption * u_sss);
     vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
     vec3 radiance = fe * kd / PI * L.sky_irradiance * (0.5 + 0.5 * n.y);

@@ -140,3 +140,12 @@ def test_average_albedo_is_the_tile_mean(probe, gl_ctx):
 
     tex = generate(Preset(), 256, ctx=gl_ctx)
     np.testing.assert_allclose(probe.material.average_albedo, tex.average_albedo, rtol=5e-3)
+
+
+def test_grazing_views_show_no_dark_patches_of_ripple_backs(probe):
+    # Looking along the sand, some rippled normals face away from the eye; they must be bent
+    # towards it, not shaded black (the BRDF is zero for a normal facing away).
+    image = shade(probe, 0.2, "far", pitch=3.0) @ LUMINANCE
+    sand = image[image > 0]
+    assert sand.size > 1000
+    assert sand.min() > 0.4 * np.median(sand)
