@@ -58,20 +58,32 @@ find_python() {
     return 1
 }
 
-# Creates or refreshes .venv; reinstalls only when pyproject.toml or the extras changed.
+# Creates or refreshes .venv; reinstalls only when pyproject.toml changed or extras are missing.
+# The stamp records the pyproject.toml hash and the extras installed, so alternating between
+# the editor and the tests does not reinstall.
 ensure_venv() {
-    local extras=$1 venv=.venv python stamp
-    python=$(find_python)
-    stamp="$(sha256sum pyproject.toml | cut -c1-16)-${extras}"
-    if [[ -x $venv/bin/python && -f $venv/.sand-editor-stamp && $(cat $venv/.sand-editor-stamp) == "$stamp" ]]; then
-        return 0
+    local requested=$1 venv=.venv python hash installed="" extras
+    hash=$(sha256sum pyproject.toml | cut -c1-16)
+    if [[ -x $venv/bin/python && -f $venv/.sand-editor-stamp ]]; then
+        read -r stamp_hash installed <"$venv/.sand-editor-stamp" || true
+        if [[ $stamp_hash == "$hash" ]]; then
+            local extra complete=1
+            for extra in ${requested//,/ }; do
+                [[ ",$installed," == *",$extra,"* ]] || complete=0
+            done
+            ((complete)) && return 0
+        else
+            installed=""
+        fi
     fi
+    extras=$(tr ',' '\n' <<<"$installed,$requested" | sed '/^$/d' | sort -u | paste -sd, -)
+    python=$(find_python)
     if [[ ! -x $venv/bin/python ]]; then
         say "creating $venv with $($python --version)"
         "$python" -m venv "$venv"
     fi
-    say "installing the project and its dependencies into $venv"
+    say "installing the project and its dependencies ($extras) into $venv"
     "$venv/bin/python" -m pip install -q --upgrade pip
     "$venv/bin/python" -m pip install -q -e ".[${extras}]"
-    echo "$stamp" >"$venv/.sand-editor-stamp"
+    echo "$hash $extras" >"$venv/.sand-editor-stamp"
 }

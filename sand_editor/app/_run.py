@@ -16,7 +16,8 @@ _DISPLAYLESS_PLATFORMS = frozenset(
     {"offscreen", "minimal", "minimalegl", "eglfs", "linuxfb", "vnc", "vkkhrdisplay"}
 )
 NO_DISPLAY_HINT = (
-    "the editor needs a desktop session. Headless commands: sand-editor bake, sand-editor bench"
+    "the editor needs a desktop session. Headless commands: sand-editor bake, sand-editor render, "
+    "sand-editor bench"
 )
 
 
