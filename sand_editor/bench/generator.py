@@ -15,16 +15,15 @@ with the hash rounded as a float32 GPU rounds it, which isolates the finite-diff
 
 from __future__ import annotations
 
-import json
 import platform
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 from sand_editor.bench._reference_port import ReferenceParams, ReferencePort, port_oracle
+from sand_editor.bench._report import report
 from sand_editor.generator import check_size, generate, gl_generator
 from sand_editor.generator.noise import NoiseConstants
 from sand_editor.generator.reference import evaluate
@@ -284,10 +283,4 @@ def main(
     json_path: str | None = None,
     plot_path: str | None = None,
 ) -> int:
-    results = run(quick=quick, sizes=sizes)
-    print(format_table(results))
-    if json_path:
-        Path(json_path).write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
-    if plot_path:
-        plot(results, plot_path)
-    return 0
+    return report(run(quick=quick, sizes=sizes), format_table, plot, json_path, plot_path)

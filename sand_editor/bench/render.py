@@ -8,14 +8,13 @@ K×K jittered samples per pixel.
 
 from __future__ import annotations
 
-import json
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
+from sand_editor.bench._report import report
 from sand_editor.bench.generator import machine_description
 from sand_editor.gl import standalone_context
 from sand_editor.preset import Preset
@@ -295,10 +294,4 @@ def plot(results: dict, path: str) -> None:
 
 
 def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:
-    results = run(quick=quick)
-    print(format_table(results))
-    if json_path:
-        Path(json_path).write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
-    if plot_path:
-        plot(results, plot_path)
-    return 0
+    return report(run(quick=quick), format_table, plot, json_path, plot_path)
