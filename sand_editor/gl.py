@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import re
 import threading
 from collections.abc import Iterator, Mapping
@@ -36,7 +38,54 @@ def standalone_context() -> moderngl.Context:
                 f"{exc}. On Debian install libegl1 and libgl1-mesa-dri."
             ) from exc
         _local.ctx = ctx
+        _local.egl_handle = _current_egl_context()
+    elif _current_egl_context() != _local.egl_handle:
+        # A window's context was current since (see standalone_current): ours comes back.
+        ctx.__enter__()
     return ctx
+
+
+@contextmanager
+def standalone_current() -> Iterator[moderngl.Context]:
+    """The headless context, current for the block and released after it.
+
+    libglvnd refuses to make a GLX context (a Qt window's) current while an EGL context is
+    current on the same thread, and the other way round: code that shares its thread with a
+    window's context uses the headless one only inside this block, with the window's released.
+    """
+    ctx = standalone_context()
+    try:
+        yield ctx
+    finally:
+        release_standalone_context()
+
+
+def release_standalone_context() -> None:
+    """Make no EGL context current on this thread (a no-op where none is)."""
+    egl = _egl_library()
+    if egl is not None and egl.eglGetCurrentContext():
+        egl.eglMakeCurrent(egl.eglGetCurrentDisplay(), None, None, None)
+
+
+def _egl_library():
+    if not hasattr(_local, "egl"):
+        name = ctypes.util.find_library("EGL") or "libEGL.so.1"
+        try:
+            egl = ctypes.CDLL(name)
+        except OSError:
+            egl = None
+        else:
+            egl.eglGetCurrentContext.restype = ctypes.c_void_p
+            egl.eglGetCurrentDisplay.restype = ctypes.c_void_p
+            egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+            egl.eglMakeCurrent.restype = ctypes.c_uint
+        _local.egl = egl
+    return _local.egl
+
+
+def _current_egl_context() -> int | None:
+    egl = _egl_library()
+    return egl.eglGetCurrentContext() if egl is not None else None
 
 
 _INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([^"]+)"[ \t]*$', re.M)

@@ -1,4 +1,5 @@
-"""The texture preview: one tab per generated map, with tiling and nearest-neighbour zoom."""
+"""The texture preview: one tab per generated map, with tiling and nearest-neighbour zoom, and a
+"3D" tab with the live rendered desert."""
 
 from __future__ import annotations
 
@@ -13,15 +14,18 @@ from PySide6.QtWidgets import (
     QHBoxLayout,
     QLabel,
     QScrollArea,
+    QStackedWidget,
     QTabBar,
     QVBoxLayout,
     QWidget,
 )
 
+from sand_editor.app._view3d import View3DPanel
 from sand_editor.generator import SandTextures
 from sand_editor.generator.noise import MAX_LAYERS, linear_to_srgb
 
 CHANNELS = ("Albedo", "Normals", "Glint", "Layers")
+TAB_3D = "3D"
 PREVIEW_SIZES = (256, 512, 1024)
 DEFAULT_PREVIEW_SIZE = 512
 ZOOMS = {"Fit": None, "1:1": 1, "2:1": 2}
@@ -64,8 +68,10 @@ class PreviewPanel(QWidget):
 
     size_changed = Signal(int)
 
-    def __init__(self, parent: QWidget | None = None):
+    def __init__(self, parent: QWidget | None = None, model=None):
         super().__init__(parent)
+        self._model = model
+        self.view3d = None  # the 3D panel, made when its tab is first shown
         self._textures: SandTextures | None = None
         self._image = QImage()
         self._target_size = DEFAULT_PREVIEW_SIZE
@@ -73,6 +79,8 @@ class PreviewPanel(QWidget):
         self.tabs = QTabBar(self, objectName="preview-tabs")
         for channel in CHANNELS:
             self.tabs.addTab(channel)
+        if model is not None:
+            self.tabs.addTab(TAB_3D)
         self.tiling = QCheckBox("Tile 2×2", self, objectName="preview-tiling")
         self.tiling.setToolTip("Show four copies of the tile, so seams would be visible.")
         self.zoom = QComboBox(self, objectName="preview-zoom")
@@ -94,16 +102,21 @@ class PreviewPanel(QWidget):
         bar = QHBoxLayout()
         bar.addWidget(self.tabs)
         bar.addStretch(1)
+        self._texture_options = []
         for label, widget in (("", self.tiling), ("Zoom", self.zoom), ("Size", self.size_combo)):
             if label:
-                bar.addWidget(QLabel(label, self))
+                self._texture_options.append(QLabel(label, self))
+                bar.addWidget(self._texture_options[-1])
+            self._texture_options.append(widget)
             bar.addWidget(widget)
+        self.pages = QStackedWidget(self)
+        self.pages.addWidget(self.scroll)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addLayout(bar)
-        layout.addWidget(self.scroll, 1)
+        layout.addWidget(self.pages, 1)
 
-        self.tabs.currentChanged.connect(self._rebuild_image)
+        self.tabs.currentChanged.connect(self._tab_changed)
         self.tiling.toggled.connect(self._rebuild_image)
         self.zoom.currentIndexChanged.connect(self._show_image)
         self.size_combo.currentIndexChanged.connect(
@@ -116,7 +129,26 @@ class PreviewPanel(QWidget):
 
     @property
     def channel(self) -> str:
-        return CHANNELS[self.tabs.currentIndex()]
+        """The current tab's name: one of ``CHANNELS``, or ``TAB_3D``."""
+        return self.tabs.tabText(self.tabs.currentIndex())
+
+    def show_3d(self):
+        """Switch to the 3D tab; returns its ``View3DPanel``."""
+        self.tabs.setCurrentIndex(len(CHANNELS))
+        return self.view3d
+
+    def _tab_changed(self) -> None:
+        is_3d = self.channel == TAB_3D
+        if is_3d and self.view3d is None:
+            # Made on demand: an OpenGL widget turns the whole window into a GL-composited one,
+            # which an editor that never opens this tab does not need to pay for.
+            self.view3d = View3DPanel(self._model)
+            self.pages.addWidget(self.view3d)
+        for widget in self._texture_options:
+            widget.setVisible(not is_3d)
+        self.pages.setCurrentWidget(self.view3d if is_3d else self.scroll)
+        if not is_3d:
+            self._rebuild_image()
 
     @property
     def textures(self) -> SandTextures | None:
@@ -144,7 +176,7 @@ class PreviewPanel(QWidget):
             self._show_image()
 
     def _rebuild_image(self) -> None:
-        if self._textures is None:
+        if self._textures is None or self.channel not in CHANNELS:
             return
         rgb = channel_rgb(self._textures, self.channel)
         if self.tiling.isChecked():

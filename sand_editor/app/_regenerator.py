@@ -4,14 +4,28 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 
 from PySide6.QtCore import QObject, QTimer, Signal
+from PySide6.QtGui import QOpenGLContext
 
 from sand_editor.generator import SandTextures, generate_progressive
+from sand_editor.gl import standalone_current
 from sand_editor.preset import Preset
 
 DEBOUNCE_MS = 60
 FIRST_SIZE = 128
+
+
+@contextmanager
+def headless_gl() -> Iterator[None]:
+    """The headless context current for the block, with Qt's (the 3D view's, or the window's
+    compositor) released first: the two cannot be current together on this thread."""
+    current = QOpenGLContext.currentContext()
+    if current is not None:
+        current.doneCurrent()
+    with standalone_current():
+        yield
 
 
 class Regenerator(QObject):
@@ -71,7 +85,8 @@ class Regenerator(QObject):
         self._step_timer.stop()
         if self._steps is not None:
             # close() runs the generator's cleanup now, releasing its GPU target.
-            self._steps.close()
+            with headless_gl():
+                self._steps.close()
             self._steps = None
 
     def _start(self) -> None:
@@ -82,7 +97,8 @@ class Regenerator(QObject):
 
     def _step(self) -> None:
         try:
-            textures = next(self._steps)
+            with headless_gl():
+                textures = next(self._steps)
         except StopIteration:
             self._cancel()
             return

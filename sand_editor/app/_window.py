@@ -61,7 +61,7 @@ class EditorWindow(QMainWindow):
         panel_scroll.setWidget(self.controls)
         panel_scroll.setWidgetResizable(True)
         panel_scroll.setMinimumWidth(self.controls.sizeHint().width() + 24)
-        self.preview = PreviewPanel()
+        self.preview = PreviewPanel(model=self.model)
         splitter = QSplitter(Qt.Orientation.Horizontal, self)
         splitter.addWidget(panel_scroll)
         splitter.addWidget(self.preview)

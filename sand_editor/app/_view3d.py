@@ -1,0 +1,472 @@
+"""The live 3D preview: the desert in the current preset's sand, drawn by the one renderer
+(``sand_editor.render``) into a QOpenGLWidget, with camera, time-of-day and mode controls."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import moderngl
+import shiboken6
+from PySide6.QtCore import QElapsedTimer, QPointF, Qt, QTimer, Signal
+from PySide6.QtGui import QOffscreenSurface, QOpenGLContext, QSurfaceFormat
+from PySide6.QtOpenGLWidgets import QOpenGLWidget
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDoubleSpinBox,
+    QGridLayout,
+    QHBoxLayout,
+    QLabel,
+    QSlider,
+    QSpinBox,
+    QStackedWidget,
+    QVBoxLayout,
+    QWidget,
+)
+
+from sand_editor.app._model import PresetModel
+from sand_editor.gl import REQUIRED_GL_VERSION, release_standalone_context
+from sand_editor.preset import Preset
+from sand_editor.render.camera import camera_at_distance
+from sand_editor.render.material import SandMaterial
+from sand_editor.render.modes import MODE_HELP, MODES
+from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.sky import advance, sky_at
+
+TEXTURE_SIZE = 512
+MIN_DISTANCE_M = 1e-3
+MAX_DISTANCE_M = 100.0
+DISTANCE_STEPS = 1000  # slider positions across the log range
+WHEEL_FACTOR = 1.15
+DEG_PER_PIXEL = 0.3
+DAY_TICK_MS = 33
+MAX_DAY_SPEED = 86_400
+
+
+def surface_format() -> QSurfaceFormat:
+    fmt = QSurfaceFormat()
+    fmt.setVersion(REQUIRED_GL_VERSION // 100, (REQUIRED_GL_VERSION // 10) % 10)
+    fmt.setProfile(QSurfaceFormat.OpenGLContextProfile.CoreProfile)
+    fmt.setDepthBufferSize(24)
+    return fmt
+
+
+def format_time(time_hours: float) -> str:
+    minutes = int(round(time_hours * 60.0)) % (24 * 60 + 1)
+    return f"{minutes // 60:02d}:{minutes % 60:02d}"
+
+
+class GLResources:
+    """The view's GL objects, kept apart from the widget: they are released while Qt destroys
+    the widget's context, when the widget itself can no longer be reached from Python."""
+
+    def __init__(self) -> None:
+        self.ctx: moderngl.Context | None = None
+        self.material: SandMaterial | None = None
+        self.renderer: SandRenderer | None = None
+        self.surface: QOffscreenSurface | None = None
+        # The GL error state when the objects went away; None until then.
+        self.release_error: str | None = None
+
+    def release(self, context: QOpenGLContext | None = None) -> None:
+        """Release everything, with ``context`` made current if given."""
+        if self.ctx is None:
+            return
+        if context is not None:
+            release_standalone_context()
+            context.makeCurrent(self.surface)
+        try:
+            for owner in (self.renderer, self.material):
+                if owner is not None:
+                    owner.release()
+            self.release_error = self.ctx.error
+            self.ctx.release()
+        finally:
+            self.ctx = self.material = self.renderer = None
+            if context is not None:
+                context.doneCurrent()
+            if self.surface is not None:
+                self.surface.destroy()
+                self.surface = None
+
+
+class SandView(QOpenGLWidget):
+    """Draws one frame on demand; all GL work happens with this widget's context current.
+
+    Signals
+    -------
+    orbited(float, float)
+        A left-button drag: degrees of heading and pitch to add.
+    zoomed(float)
+        A wheel turn: the factor to multiply the distance by.
+    rendered(dict)
+        A frame was drawn: the renderer's timings plus ``total_ms``.
+    failed(str)
+        The view cannot draw (no suitable context, or initialisation raised).
+    """
+
+    orbited = Signal(float, float)
+    zoomed = Signal(float)
+    rendered = Signal(object)
+    failed = Signal(str)
+
+    def __init__(self, preset: Preset, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.setFormat(surface_format())
+        self.setMinimumSize(160, 100)
+        self.gl = GLResources()
+        self.error: str | None = None
+        self.last_timings: dict | None = None
+        self.frames = 0
+        self.distance_m = 1.0
+        self.pitch_deg = 45.0
+        self.heading_deg = 0.0
+        self.time_hours = 10.0
+        self.mode = "full"
+        self.show_sphere = False
+        self._preset = preset
+        self._drag_from: QPointF | None = None
+
+    @property
+    def ctx(self) -> moderngl.Context | None:
+        return self.gl.ctx
+
+    @property
+    def material(self) -> SandMaterial | None:
+        return self.gl.material
+
+    @property
+    def renderer(self) -> SandRenderer | None:
+        return self.gl.renderer
+
+    # -- state -----------------------------------------------------------------------------------
+
+    def set_view(self, **values) -> None:
+        """Set any of distance_m, pitch_deg, heading_deg, time_hours, mode, show_sphere."""
+        for name, value in values.items():
+            if not hasattr(self, name):
+                raise AttributeError(name)
+            setattr(self, name, value)
+        self.update()
+
+    def set_preset(self, preset: Preset) -> None:
+        self._preset = preset
+        if self.material is None:
+            return  # initializeGL picks it up
+        self._with_context(lambda: self.material.update(preset))
+        self.update()
+
+    def _with_context(self, work) -> None:
+        # Our GLX context cannot be made current while the headless EGL one is.
+        release_standalone_context()
+        self.makeCurrent()
+        try:
+            work()
+        except Exception as error:  # a driver error is shown, not fatal to the editor
+            self._fail(f"3D view: {error}")
+        finally:
+            self.doneCurrent()
+
+    def _fail(self, message: str) -> None:
+        self.error = message
+        self.failed.emit(message)
+
+    # -- GL ----------------------------------------------------------------------------------------
+
+    def initializeGL(self) -> None:
+        fmt = self.context().format()
+        version = fmt.majorVersion() * 100 + fmt.minorVersion() * 10
+        if version < REQUIRED_GL_VERSION:
+            self._fail(
+                f"The 3D view needs OpenGL 3.3; this display offers "
+                f"{fmt.majorVersion()}.{fmt.minorVersion()}."
+            )
+            return
+        gl = self.gl
+        try:
+            gl.ctx = moderngl.create_context()
+            gl.material = SandMaterial(gl.ctx, TEXTURE_SIZE)
+            gl.material.update(self._preset)
+            gl.renderer = SandRenderer(gl.ctx)
+            gl.renderer.set_material(gl.material)
+        except Exception as error:
+            self._fail(f"Cannot start the 3D view: {error}")
+            return
+        # Where the context must be made current while the widget is being destroyed.
+        gl.surface = QOffscreenSurface()
+        gl.surface.setFormat(self.context().format())
+        gl.surface.create()
+        # Not a slot of the widget, nor using the context's wrapper: this runs from their
+        # destructors, when PySide already counts both as deleted; a fresh wrapper of the
+        # context (still valid in C++ until the signal returns) can make it current.
+        address = shiboken6.getCppPointer(self.context())[0]
+        self.context().aboutToBeDestroyed.connect(
+            lambda: gl.release(shiboken6.wrapInstance(address, QOpenGLContext))
+        )
+
+    def paintGL(self) -> None:
+        if self.renderer is None or self.error is not None:
+            return
+        ratio = self.devicePixelRatioF()
+        width = max(1, round(self.width() * ratio))
+        height = max(1, round(self.height() * ratio))
+        terrain = self.renderer.terrain
+        try:
+            camera = camera_at_distance(
+                self.distance_m,
+                self.pitch_deg,
+                width / height,
+                ground_height=lambda x, z: float(terrain.height(x, z)),
+                heading_deg=self.heading_deg,
+            )
+            fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
+            fbo.use()
+            start = time.perf_counter()
+            timings = self.renderer.render(
+                fbo,
+                camera,
+                sky_at(self.time_hours),
+                self.mode,
+                viewport=(0, 0, width, height),
+                show_sphere=self.show_sphere,
+            )
+        except Exception as error:
+            self._fail(f"3D view: {error}")
+            return
+        timings["total_ms"] = (time.perf_counter() - start) * 1e3
+        self.frames += 1
+        self.last_timings = timings
+        self.rendered.emit(timings)
+
+    def cleanup(self) -> None:
+        """Release our GL objects now (the view then stays blank)."""
+        self.gl.release(self.context())
+
+    # -- mouse -------------------------------------------------------------------------------------
+
+    def mousePressEvent(self, event) -> None:
+        if event.button() == Qt.MouseButton.LeftButton:
+            self._drag_from = event.position()
+        super().mousePressEvent(event)
+
+    def mouseMoveEvent(self, event) -> None:
+        if self._drag_from is not None:
+            delta = event.position() - self._drag_from
+            self._drag_from = event.position()
+            self.orbited.emit(delta.x() * DEG_PER_PIXEL, delta.y() * DEG_PER_PIXEL)
+        super().mouseMoveEvent(event)
+
+    def mouseReleaseEvent(self, event) -> None:
+        if event.button() == Qt.MouseButton.LeftButton:
+            self._drag_from = None
+        super().mouseReleaseEvent(event)
+
+    def wheelEvent(self, event) -> None:
+        steps = event.angleDelta().y() / 120.0
+        if steps:
+            # Wheel forward moves closer.
+            self.zoomed.emit(WHEEL_FACTOR ** (-steps))
+        event.accept()
+
+
+class View3DPanel(QWidget):
+    """The 3D tab: a bar of controls above a ``SandView`` following the preset model."""
+
+    def __init__(self, model: PresetModel, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.model = model
+        self.view = SandView(model.preset, self)
+        self.view.setObjectName("view3d")
+
+        self.distance_slider = QSlider(Qt.Orientation.Horizontal, objectName="view3d-distance")
+        self.distance_slider.setRange(0, DISTANCE_STEPS)
+        self.distance_slider.setToolTip("Distance from the camera to the sand, 1 mm to 100 m.")
+        self.distance_spin = QDoubleSpinBox(objectName="view3d-distance-m")
+        self.distance_spin.setRange(MIN_DISTANCE_M, MAX_DISTANCE_M)
+        self.distance_spin.setDecimals(4)
+        self.distance_spin.setSuffix(" m")
+        self.distance_spin.setStepType(QDoubleSpinBox.StepType.AdaptiveDecimalStepType)
+        self.pitch_slider = QSlider(Qt.Orientation.Horizontal, objectName="view3d-pitch")
+        self.pitch_slider.setRange(1, 90)
+        self.pitch_slider.setToolTip("Angle below the horizon, 1° (grazing) to 90° (down).")
+        self.pitch_label = QLabel(objectName="view3d-pitch-label")
+        self.heading_spin = QSpinBox(objectName="view3d-heading")
+        self.heading_spin.setRange(0, 359)
+        self.heading_spin.setWrapping(True)
+        self.heading_spin.setSuffix("°")
+        self.heading_spin.setToolTip("Compass direction of view: 0° north, 90° east.")
+        self.time_slider = QSlider(Qt.Orientation.Horizontal, objectName="view3d-time")
+        self.time_slider.setRange(0, 24 * 60)
+        self.time_label = QLabel(objectName="view3d-time-label")
+        self.day_speed = QSpinBox(objectName="view3d-day-speed")
+        self.day_speed.setRange(0, MAX_DAY_SPEED)
+        self.day_speed.setSpecialValueText("paused")
+        self.day_speed.setSuffix("×")
+        self.day_speed.setToolTip("Simulated seconds per real second; 0 stops the clock.")
+        self.mode_combo = QComboBox(objectName="view3d-mode")
+        for mode in MODES:
+            self.mode_combo.addItem(mode, mode)
+            self.mode_combo.setItemData(
+                self.mode_combo.count() - 1, MODE_HELP[mode], Qt.ItemDataRole.ToolTipRole
+            )
+        self.sphere = QCheckBox("Sphere", objectName="view3d-sphere")
+        self.sphere.setToolTip("Put a sand-covered sphere beside the point in view.")
+        self.status = QLabel("—", objectName="view3d-status")
+
+        grid = QGridLayout()
+        grid.setContentsMargins(4, 2, 4, 2)
+        row1 = (
+            ("Distance", self.distance_slider, 3),
+            ("", self.distance_spin, 0),
+            ("Pitch", self.pitch_slider, 2),
+            ("", self.pitch_label, 0),
+            ("Heading", self.heading_spin, 0),
+        )
+        row2 = (
+            ("Time", self.time_slider, 3),
+            ("", self.time_label, 0),
+            ("Day speed", self.day_speed, 0),
+            ("Mode", self.mode_combo, 0),
+            ("", self.sphere, 0),
+        )
+        for row, items in enumerate((row1, row2)):
+            line = QHBoxLayout()
+            for label, widget, stretch in items:
+                if label:
+                    line.addWidget(QLabel(label))
+                line.addWidget(widget, stretch)
+            grid.addLayout(line, row, 0)
+        grid.addWidget(self.status, 2, 0)
+
+        self.message = QLabel(objectName="view3d-message")
+        self.message.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.message.setWordWrap(True)
+        self.stack = QStackedWidget()
+        self.stack.addWidget(self.view)
+        self.stack.addWidget(self.message)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addLayout(grid)
+        layout.addWidget(self.stack, 1)
+
+        self._clock = QElapsedTimer()
+        self.day_timer = QTimer(self, interval=DAY_TICK_MS)
+        self.day_timer.timeout.connect(self._tick)
+
+        self.distance_slider.valueChanged.connect(
+            lambda step: self.set_distance(_distance_of_step(step))
+        )
+        self.distance_spin.valueChanged.connect(self.set_distance)
+        self.pitch_slider.valueChanged.connect(self._pitch_changed)
+        self.heading_spin.valueChanged.connect(lambda deg: self.view.set_view(heading_deg=deg))
+        self.time_slider.valueChanged.connect(self._time_slider_changed)
+        self.day_speed.valueChanged.connect(self._update_day_timer)
+        self.mode_combo.currentIndexChanged.connect(
+            lambda: self.view.set_view(mode=self.mode_combo.currentData())
+        )
+        self.sphere.toggled.connect(lambda on: self.view.set_view(show_sphere=on))
+        self.view.orbited.connect(self._orbit)
+        self.view.zoomed.connect(lambda factor: self.set_distance(self.view.distance_m * factor))
+        self.view.rendered.connect(self._show_timings)
+        self.view.failed.connect(self.show_message)
+        model.changed.connect(lambda preset, paths: self.view.set_preset(preset))
+
+        self.set_distance(self.view.distance_m)
+        self.pitch_slider.setValue(round(self.view.pitch_deg))
+        self._pitch_changed(self.pitch_slider.value())
+        self.set_time(self.view.time_hours)
+
+    # -- controls ----------------------------------------------------------------------------------
+
+    def set_distance(self, distance_m: float) -> None:
+        distance_m = min(max(float(distance_m), MIN_DISTANCE_M), MAX_DISTANCE_M)
+        for widget, value in (
+            (self.distance_slider, _step_of_distance(distance_m)),
+            (self.distance_spin, distance_m),
+        ):
+            widget.blockSignals(True)
+            widget.setValue(value)
+            widget.blockSignals(False)
+        self.view.set_view(distance_m=distance_m)
+
+    def set_time(self, time_hours: float) -> None:
+        """Set the clock (hours since midnight); the slider shows it to the minute."""
+        time_hours = float(time_hours) % 24.0 if time_hours != 24.0 else 24.0
+        self.time_slider.blockSignals(True)
+        self.time_slider.setValue(round(time_hours * 60.0))
+        self.time_slider.blockSignals(False)
+        self.time_label.setText(format_time(time_hours))
+        self.view.set_view(time_hours=time_hours)
+
+    def show_message(self, text: str) -> None:
+        self.day_timer.stop()
+        self.message.setText(text)
+        self.stack.setCurrentWidget(self.message)
+        self.status.setText("3D view unavailable")
+
+    def _pitch_changed(self, degrees: int) -> None:
+        self.pitch_label.setText(f"{degrees}°")
+        self.view.set_view(pitch_deg=float(degrees))
+
+    def _time_slider_changed(self, minutes: int) -> None:
+        self.set_time(minutes / 60.0)
+
+    def _orbit(self, heading_delta: float, pitch_delta: float) -> None:
+        heading = (self.view.heading_deg + heading_delta) % 360.0
+        self.heading_spin.blockSignals(True)
+        self.heading_spin.setValue(int(heading) % 360)
+        self.heading_spin.blockSignals(False)
+        self.view.set_view(heading_deg=heading)
+        pitch = min(max(self.view.pitch_deg + pitch_delta, 1.0), 90.0)
+        self.pitch_slider.blockSignals(True)
+        self.pitch_slider.setValue(round(pitch))
+        self.pitch_slider.blockSignals(False)
+        self.pitch_label.setText(f"{round(pitch)}°")
+        self.view.set_view(pitch_deg=pitch)
+
+    def _show_timings(self, timings: dict) -> None:
+        self.status.setText(
+            f"{self.view.mode} · {timings['total_ms']:.1f} ms CPU "
+            f"(sky {timings['sky_ms']:.1f}, surface {timings['surface_ms']:.1f}, "
+            f"post {timings['post_ms']:.1f}) · exposure {timings['exposure']:.2f}"
+        )
+
+    # -- the running day ---------------------------------------------------------------------------
+
+    def _update_day_timer(self) -> None:
+        running = self.day_speed.value() > 0 and self.isVisible() and self.view.error is None
+        if running and not self.day_timer.isActive():
+            self._clock.start()
+            self.day_timer.start()
+        elif not running:
+            self.day_timer.stop()
+
+    def _tick(self) -> None:
+        seconds = self._clock.restart() / 1000.0
+        self.set_time(advance(self.view.time_hours, seconds, self.day_speed.value()))
+
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        self._update_day_timer()
+        # A context that could not be created never reaches initializeGL: say so.
+        QTimer.singleShot(200, self._check_context)
+
+    def hideEvent(self, event) -> None:
+        super().hideEvent(event)
+        self.day_timer.stop()
+
+    def _check_context(self) -> None:
+        if self.view.isVisible() and not self.view.isValid() and self.view.error is None:
+            self.view.error = "Cannot create an OpenGL 3.3 core context for the 3D view."
+            self.show_message(self.view.error)
+
+
+def _step_of_distance(distance_m: float) -> int:
+    span = math.log10(MAX_DISTANCE_M / MIN_DISTANCE_M)
+    return round(math.log10(distance_m / MIN_DISTANCE_M) / span * DISTANCE_STEPS)
+
+
+def _distance_of_step(step: int) -> float:
+    span = math.log10(MAX_DISTANCE_M / MIN_DISTANCE_M)
+    return MIN_DISTANCE_M * 10.0 ** (step / DISTANCE_STEPS * span)

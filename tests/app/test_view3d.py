@@ -1,0 +1,147 @@
+"""The 3D tab: the real renderer in Qt's context, driven by its controls and the preset model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QPoint, Qt
+from PySide6.QtGui import QImage
+
+from sand_editor.app import EditorWindow
+from sand_editor.app._view3d import DISTANCE_STEPS, MAX_DISTANCE_M, MIN_DISTANCE_M
+from sand_editor.render.modes import MODES
+from sand_editor.resources import bundled_preset
+
+pytestmark = pytest.mark.qt
+
+TIMEOUT_MS = 20_000
+VIEW_SIZE = (160, 100)  # llvmpipe on a couple of cores: small frames keep each test quick
+
+
+def pixels(image: QImage) -> np.ndarray:
+    image = image.convertToFormat(QImage.Format.Format_RGB888)
+    rows = np.frombuffer(image.constBits(), np.uint8).reshape(image.height(), -1)
+    return rows[:, : image.width() * 3].reshape(image.height(), image.width(), 3).copy()
+
+
+def open_3d(editor, qtbot):
+    panel = editor.preview.show_3d()
+    panel.view.setFixedSize(*VIEW_SIZE)
+    qtbot.waitUntil(lambda: panel.view.frames > 0 or panel.view.error, timeout=TIMEOUT_MS)
+    assert panel.view.error is None, panel.view.error
+    return panel
+
+
+@pytest.fixture
+def panel(window, qtbot):
+    return open_3d(window, qtbot)
+
+
+def frame(panel) -> np.ndarray:
+    # grabFramebuffer draws a fresh frame with the view's current settings.
+    image = pixels(panel.view.grabFramebuffer())
+    assert panel.view.ctx.error == "GL_NO_ERROR"
+    return image
+
+
+def test_the_view_initialises_and_paints_the_desert(panel):
+    image = frame(panel)
+    assert image.shape[:2] == (VIEW_SIZE[1], VIEW_SIZE[0])
+    assert image.max() > 40, "all black"
+    assert image.reshape(-1, 3).std(axis=0).max() > 1.0, "a single flat colour"
+    assert "ms" in panel.status.text()
+    assert panel.mode_combo.count() == len(MODES)
+
+
+def test_night_is_darker_than_noon(panel):
+    panel.time_slider.setValue(12 * 60)
+    assert panel.time_label.text() == "12:00"
+    noon = frame(panel)
+    panel.time_slider.setValue(30)
+    assert panel.time_label.text() == "00:30"
+    assert panel.view.time_hours == pytest.approx(0.5)
+    night = frame(panel)
+    assert night.mean() < 0.5 * noon.mean()
+
+
+def test_shading_changes_keep_the_grains_and_generation_changes_replace_them(panel, qtbot):
+    material = panel.view.material
+    grains = material._grains
+    frames = panel.view.frames
+
+    panel.model.edit("shading.glint_mu", 1.0)
+    qtbot.waitUntil(lambda: panel.view.frames > frames, timeout=TIMEOUT_MS)
+    assert material._grains is grains
+    assert material.preset.shading.glint_mu == 1.0
+
+    frames = panel.view.frames
+    panel.model.edit("generation.seed", panel.model.preset.generation.seed + 1)
+    qtbot.waitUntil(lambda: panel.view.frames > frames, timeout=TIMEOUT_MS)
+    assert material._grains is not grains
+    assert material.preset == panel.model.preset
+    assert panel.view.ctx.error == "GL_NO_ERROR"
+    # The texture preview still regenerates in its own context alongside the view.
+    qtbot.waitUntil(lambda: not panel.window().regenerator.busy, timeout=TIMEOUT_MS)
+    assert panel.window().preview.textures.size == panel.window().preview.preview_size
+
+
+def test_blend_mode_changes_the_image(panel):
+    full = frame(panel)
+    panel.mode_combo.setCurrentText("blend")
+    assert panel.view.mode == "blend"
+    blend = frame(panel)
+    assert np.abs(blend.astype(int) - full.astype(int)).mean() > 5
+
+
+@pytest.mark.parametrize("sphere", [False, True])
+def test_both_ends_of_the_distance_range_render_cleanly(panel, sphere):
+    panel.sphere.setChecked(sphere)
+    panel.distance_slider.setValue(0)
+    assert panel.view.distance_m == pytest.approx(MIN_DISTANCE_M)
+    assert panel.distance_spin.value() == pytest.approx(MIN_DISTANCE_M)
+    near = frame(panel)
+    panel.distance_spin.setValue(MAX_DISTANCE_M)
+    assert panel.distance_slider.value() == DISTANCE_STEPS
+    far = frame(panel)
+    for image in (near, far):
+        assert image.max() > 40
+    assert panel.view.ctx.error == "GL_NO_ERROR"
+
+
+def test_wheel_and_drag_move_the_camera(panel, qtbot):
+    panel.view.zoomed.emit(2.0)
+    assert panel.view.distance_m == pytest.approx(2.0, rel=1e-3)
+    assert panel.distance_spin.value() == pytest.approx(2.0, rel=1e-3)
+    view = panel.view
+    qtbot.mousePress(view, Qt.MouseButton.LeftButton, pos=QPoint(40, 40))
+    qtbot.mouseMove(view, QPoint(60, 30))
+    qtbot.mouseRelease(view, Qt.MouseButton.LeftButton, pos=QPoint(60, 30))
+    assert view.heading_deg != 0.0
+    assert view.pitch_deg < 45.0
+    assert panel.heading_spin.value() == int(view.heading_deg) % 360
+
+
+def test_a_running_day_advances_the_clock_only_while_shown(panel, qtbot):
+    panel.time_slider.setValue(6 * 60)
+    panel.day_speed.setValue(3600)
+    assert panel.day_timer.isActive()
+    qtbot.waitUntil(lambda: panel.view.time_hours > 6.05, timeout=5_000)
+    panel.window().preview.tabs.setCurrentIndex(0)
+    assert not panel.day_timer.isActive()
+    panel.day_speed.setValue(0)
+
+
+def test_closing_the_editor_releases_the_gl_resources(qtbot, default_preset):
+    editor = EditorWindow(default_preset, source=bundled_preset("paper-default"))
+    editor.show()
+    qtbot.waitExposed(editor)
+    panel = open_3d(editor, qtbot)
+    frame(panel)
+    resources = panel.view.gl
+
+    editor.close()
+    with qtbot.waitSignal(editor.destroyed, timeout=TIMEOUT_MS):
+        editor.deleteLater()
+
+    assert resources.release_error == "GL_NO_ERROR"
+    assert resources.ctx is None and resources.renderer is None and resources.material is None
