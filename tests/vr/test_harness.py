@@ -39,19 +39,27 @@ def _mounts_under_root() -> list[str]:
 
 
 def _processes_in_root() -> list[str]:
-    """Processes chrooted into the Monado root: monado-service, Xvfb, the command."""
-    root = str(MONADO_ROOT.resolve())
+    """Processes chrooted into the Monado root: monado-service, Xvfb, the command.
+
+    The root directory is compared by identity (device and inode), not by path: seen from
+    inside another chroot, /proc/PID/root of a process in another mount namespace reads as a
+    host path.
+    """
+    try:
+        root = os.stat(MONADO_ROOT)
+    except OSError:
+        return []
     found = []
     for entry in Path("/proc").iterdir():
         if not entry.name.isdigit():
             continue
         try:
-            proc_root = os.readlink(entry / "root")
+            proc_root = os.stat(entry / "root")
             comm = (entry / "comm").read_text().strip()
         except OSError:
             continue
-        if proc_root.startswith(root):
-            found.append(f"{entry.name} {comm} (root {proc_root})")
+        if (proc_root.st_dev, proc_root.st_ino) == (root.st_dev, root.st_ino):
+            found.append(f"{entry.name} {comm}")
     return found
 
 
