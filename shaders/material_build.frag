@@ -6,6 +6,7 @@
 //   glint:   w, w·bx, w·by, w·bx·by   (w = glint selection weight of g; b = slope of the grain
 //            normal, n ∝ (bx, by, 1))
 //   spread:  w·bx², w·by², bx, by
+//   hole:    w·exp(−|b|²/2s₀²), the slope density near zero at scale s₀ (sand_surface.glsl)
 // so a footprint's w-weighted slope mean and covariance (LEAN mapping) and its plain mean slope
 // (the diffuse normal) come out of one trilinear fetch per texture.
 
@@ -20,6 +21,9 @@ uniform float u_glint_sigma;
 layout(location = 0) out vec4 out_albedo;
 layout(location = 1) out vec4 out_glint;
 layout(location = 2) out vec4 out_spread;
+layout(location = 3) out float out_hole;
+
+const float HOLE_SCALE2 = 0.25;   // s₀², as in sand_surface.glsl
 
 uint lowbias32(uint x) {
     x ^= x >> 16u; x *= 0x7feb352du;
@@ -54,4 +58,5 @@ void main() {
     out_albedo = vec4(albedo, glint_value);
     out_glint = vec4(w, w * b, w * b.x * b.y);
     out_spread = vec4(w * b * b, b);
+    out_hole = w * exp(-0.5 * dot(b, b) / HOLE_SCALE2);
 }

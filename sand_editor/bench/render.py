@@ -260,37 +260,47 @@ def format_table(results: dict) -> str:
 
 
 def plot(results: dict, path: str) -> None:
+    """Per distance: glint energy error (top) and luminance MAE (bottom) against time."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     distances = list(results["curves"])
-    fig, axes = plt.subplots(1, len(distances), figsize=(3.2 * len(distances), 3.4), sharey=True)
-    for ax, distance in zip(np.atleast_1d(axes), distances, strict=True):
+    fig, axes = plt.subplots(2, len(distances), figsize=(3.0 * len(distances), 5.6), sharey="row")
+    axes = np.atleast_2d(axes)
+    metrics = (
+        ("glint energy error (%)", lambda r: abs(r["glint_energy_rel_error"]) * 100),
+        ("luminance MAE", lambda r: r["mae"]),
+    )
+    for column, distance in enumerate(distances):
         rows = results["curves"][distance]
-        for approach, colour in (("ours", "C0"), ("reference", "C1")):
-            points = sorted(
-                (r["ms"], r["mae"], r["default"])
-                for r in rows.values()
-                if r["approach"] == approach
-            )
-            ax.plot(
-                [p[0] for p in points], [p[1] for p in points], "o-", color=colour, label=approach
-            )
-            for ms, mae, is_default in points:
-                if is_default:
-                    ax.plot(ms, mae, "*", color=colour, markersize=14)
-        none = rows["none"]
-        ax.plot(none["ms"], none["mae"], "s", color="C3", label="none")
-        ax.set_title(f"{distance} m")
-        ax.set_xlabel("ms (probe)")
-        ax.set_xscale("log")
-    np.atleast_1d(axes)[0].set_ylabel("luminance MAE vs ground truth")
-    np.atleast_1d(axes)[0].legend(fontsize=8)
-    fig.suptitle("Close-range shading: error against time per sample count N (★ = preset default)")
+        for row, (label, value) in enumerate(metrics):
+            ax = axes[row, column]
+            for approach, colour in (("ours", "C0"), ("reference", "C1")):
+                points = sorted(
+                    (r["ms"], value(r), r["default"])
+                    for r in rows.values()
+                    if r["approach"] == approach
+                )
+                ax.plot([p[0] for p in points], [p[1] for p in points], "o-", color=colour,
+                        label=approach)  # fmt: skip
+                for ms, v, is_default in points:
+                    if is_default:
+                        ax.plot(ms, v, "*", color=colour, markersize=14)
+            ax.plot(rows["none"]["ms"], value(rows["none"]), "s", color="C3", label="none")
+            ax.set_xscale("log")
+            ax.minorticks_off()
+            if row == 0:
+                ax.set_title(f"{distance} m")
+            else:
+                ax.set_xlabel("ms (probe)")
+            if column == 0:
+                ax.set_ylabel(label)
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle("Close-range shading against a 256-sample ground truth (★ = preset default)")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    fig.savefig(path, dpi=90)
 
 
 def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:

@@ -98,10 +98,16 @@ class SandMaterial:
         self._grains = None
         self._built_for = None
         size = self.texture_size
-        self.albedo, self.glint_moments, self.spread_moments = (
-            self._filterable(ctx.texture((size, size), 4, dtype="f2")) for _ in range(3)
+        # Albedo is fine in half floats; the moments are not: the glint estimate subtracts
+        # second moments and the hole from their means, which half floats round away.
+        self.albedo = self._filterable(ctx.texture((size, size), 4, dtype="f2"))
+        self.glint_moments, self.spread_moments = (
+            self._filterable(ctx.texture((size, size), 4, dtype="f4")) for _ in range(2)
         )
-        self._build_fbo = ctx.framebuffer([self.albedo, self.glint_moments, self.spread_moments])
+        self.hole_moments = self._filterable(ctx.texture((size, size), 1, dtype="f4"))
+        self._build_fbo = ctx.framebuffer(
+            [self.albedo, self.glint_moments, self.spread_moments, self.hole_moments]
+        )
         self.ripple_steep = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 14, 3, 0.9, seed=1))
         self.ripple_shallow = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 9, 2, 0.5, seed=2))
         self.detail = self._map(detail_slopes(RIPPLE_MAP_SIZE, seed=3))
@@ -157,7 +163,7 @@ class SandMaterial:
         with drawing_into(self.ctx, self._build_fbo):
             self.ctx.viewport = (0, 0, self.texture_size, self.texture_size)
             draw_fullscreen(self.ctx, program)
-        for texture in (self.albedo, self.glint_moments, self.spread_moments):
+        for texture in (self.albedo, self.glint_moments, self.spread_moments, self.hole_moments):
             texture.build_mipmaps()
         # The last mip level is the average of the whole tile: the far-field colour.
         top = int(self.max_lod)
@@ -181,6 +187,7 @@ class SandMaterial:
             "u_albedo": self.albedo,
             "u_glint_moments": self.glint_moments,
             "u_spread_moments": self.spread_moments,
+            "u_hole_moments": self.hole_moments,
             "u_ripple_steep": self.ripple_steep,
             "u_ripple_shallow": self.ripple_shallow,
             "u_detail": self.detail,
