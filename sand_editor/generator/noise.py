@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-POINTS_PER_CELL = 2
 MAX_LAYERS = 15
 PALETTE_SIZE = 4
 # Where the two points of a cell sit when jitter is 0: a regular diagonal packing.
@@ -53,7 +52,6 @@ ROUNDNESS_LIMIT = 0.7
 DARKENING_SLOPE = 0.624
 DARKENING_FLOOR = 0.4
 UNIT_8 = 1.0 / 256.0
-UNIT_16 = 1.0 / 65536.0
 KEY_STRIDE = 32  # keys per cell: two points for each of up to 16 layers
 
 _U32 = np.uint32

@@ -51,6 +51,14 @@ def _range_text(minimum: float, maximum: float) -> str:
     return f"{format_number(minimum)} to {format_number(maximum)}"
 
 
+def _check_range(value: float, path: str | None, minimum: float, maximum: float) -> None:
+    if not minimum <= value <= maximum:
+        raise PresetError(
+            f"{describe(value)} is out of range; allowed {_range_text(minimum, maximum)}",
+            path=path,
+        )
+
+
 def check_number(value: Any, path: str | None, minimum: float, maximum: float) -> float:
     """Return ``value`` as a finite float within ``[minimum, maximum]``."""
     allowed = f"allowed numbers from {_range_text(minimum, maximum)}"
@@ -59,11 +67,7 @@ def check_number(value: Any, path: str | None, minimum: float, maximum: float) -
         raise PresetError(f"{describe(value)} is {type_name(value)}; {allowed}", path=path)
     if isinstance(value, float) and not math.isfinite(value):
         raise PresetError(f"{describe(value)} is not allowed; finite numbers only", path=path)
-    if not minimum <= value <= maximum:
-        raise PresetError(
-            f"{describe(value)} is out of range; allowed {_range_text(minimum, maximum)}",
-            path=path,
-        )
+    _check_range(value, path, minimum, maximum)
     return float(value)
 
 
@@ -72,9 +76,5 @@ def check_integer(value: Any, path: str | None, minimum: int, maximum: int) -> i
     allowed = f"allowed an integer from {_range_text(minimum, maximum)}"
     if isinstance(value, bool) or not isinstance(value, int):
         raise PresetError(f"{describe(value)} is not an integer; {allowed}", path=path)
-    if not minimum <= value <= maximum:
-        raise PresetError(
-            f"{describe(value)} is out of range; allowed {_range_text(minimum, maximum)}",
-            path=path,
-        )
+    _check_range(value, path, minimum, maximum)
     return int(value)
