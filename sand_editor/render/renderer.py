@@ -141,8 +141,9 @@ class SandRenderer:
         """Draw one frame into ``viewport`` of ``target`` (its whole area by default).
 
         ``scene`` is what ``prepare_frame`` chose for this frame; without it the scene is chosen
-        from ``camera`` (one view, as in the editor). Debug modes (``blend``, ``normals``, ``mip``) write the material's values unexposed and
-        unblended, over black. Returns CPU milliseconds per stage and the exposure used.
+        from ``camera`` (one view, as in the editor). Debug modes (``blend``, ``normals``,
+        ``mip``) write the material's values unexposed and unblended, over black. Returns CPU
+        milliseconds per stage and the exposure used.
         """
         check_mode(mode)
         debug = mode in DEBUG_MODES
@@ -255,10 +256,10 @@ class SandRenderer:
 
     # ---- meshes -----------------------------------------------------------------------------
 
-    def _terrain(self, eye: np.ndarray) -> _Mesh:
-        """Rings centred below the eye, finest where the eye is closest to the ground; rebuilt
-        only when the eye has moved by a fraction of the finest ring spacing, or its height
-        above the ground changed by a factor of two."""
+    def terrain_level_of_detail(self, eye) -> tuple:
+        """(finest ring spacing, centre, outer radius) of the terrain mesh for an eye: the mesh
+        is rebuilt only when this changes, i.e. when the eye has moved by a fraction of the
+        finest ring spacing, or its height above the ground changed by a factor of two."""
         ground = float(self.terrain.height(eye[0], eye[2]))
         clearance = max(float(eye[1]) - ground, 1e-6)
         inner = 2.0 ** math.floor(math.log2(min(max(0.1 * clearance, 1e-6), 0.5)))
@@ -266,7 +267,12 @@ class SandRenderer:
         center = (round(eye[0] / snap) * snap, round(eye[2] / snap) * snap)
         # High above the dunes the horizon lies far away: the desert reaches it.
         outer = max(self.terrain.extent_m, 2.0 ** math.ceil(math.log2(50.0 * clearance)))
-        key = (inner, center, outer)
+        return (inner, center, outer)
+
+    def _terrain(self, eye: np.ndarray) -> _Mesh:
+        """Rings centred below the eye, finest where the eye is closest to the ground."""
+        key = self.terrain_level_of_detail(eye)
+        inner, center, outer = key
         if key != self._terrain_key:
             origin = np.array([center[0], float(self.terrain.height(*center)), center[1]])
             mesh = self.terrain.radial_mesh(center, inner, outer, TERRAIN_SEGMENTS, origin=origin)

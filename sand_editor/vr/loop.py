@@ -98,6 +98,9 @@ class _Stats:
         self.views_differ = True
         self.states: list[str] = []
         self.errors: list[str] = []
+        self.head_lod = None
+        self.head_lod_changes = 0
+        self.eye_lod_disagreements = 0
 
 
 class FrameLoop:
@@ -132,6 +135,7 @@ class FrameLoop:
         self.ready_sent = False
         self.pending_applied: tuple[int | None, float] | None = None
         self.resources: dict[str, dict] = {}
+        self._builds_before_loop = 0
 
     # ---- start and end -------------------------------------------------------------------
 
@@ -143,6 +147,27 @@ class FrameLoop:
             reason = "timed out" if ready is None else ready.error
             raise RuntimeError(f"could not make the grain textures: {reason}")
         self._show(ready.material, ready.preset)
+        self._warm_up()
+        self._builds_before_loop = self.renderer.terrain_meshes_built
+
+    def _warm_up(self) -> None:
+        """Draw once off screen: compiling programs and the rasterizer's first draws take
+        seconds on a CPU, and a headset must not wait that long for a frame."""
+        texture = self.ctx.texture((64, 48), 4)
+        target = self.ctx.framebuffer([texture])
+        try:
+            pose = Pose((0.0, STANDING_EYE_HEIGHT_M, 0.0))
+            camera = eye_camera(pose, Fov.symmetric(1.4, 4 / 3), NEAR_M, FAR_M)
+            scene = self.renderer.prepare_frame(camera, show_sphere=False)
+            self.renderer.render(target, camera, sky_at(self.controls.hours), scene=scene)
+            target.use()
+            self.workbench.draw(self.ctx, camera, (0, 0, 64, 48), self.controls, "", [pose])
+            self.ctx.finish()
+        finally:
+            # Nothing may stay bound to a released framebuffer (the next draw restores it).
+            self.ctx.screen.use()
+            target.release()
+            texture.release()
 
     def close(self) -> None:
         self.worker.close()
@@ -191,6 +216,7 @@ class FrameLoop:
         eyes = [replace(e, pose=e.pose.translated(self.world_offset)) for e in frame.eyes]
         cameras = [eye_camera(e.pose, e.fov, NEAR_M, FAR_M) for e in eyes]
         head = eye_camera(_between(eyes), eyes[0].fov, NEAR_M, FAR_M)
+        self._count_levels_of_detail(head, cameras)
         scene = self.renderer.prepare_frame(head, show_sphere=False)
         sky = sky_at(self.controls.hours)
         rays = [self._world_pose(hand.aim) for _, hand in frame.input.hands()]
@@ -218,6 +244,17 @@ class FrameLoop:
         if screenshot:
             _save_side_by_side(images, self.options.screenshot)
         return eye_ms
+
+    def _count_levels_of_detail(self, head, cameras) -> None:
+        """How often the head's terrain level of detail changed, and how often the eyes would
+        have disagreed on it had each chosen its own (the cost the shared scene avoids)."""
+        stats = self.stats
+        key = self.renderer.terrain_level_of_detail(head.eye)
+        if key != stats.head_lod:
+            stats.head_lod_changes += 1
+            stats.head_lod = key
+        eye_keys = {self.renderer.terrain_level_of_detail(c.eye) for c in cameras}
+        stats.eye_lod_disagreements += len(eye_keys) > 1
 
     def _after_submit(self, now: float, frame: Frame) -> None:
         stats = self.stats
@@ -385,6 +422,12 @@ class FrameLoop:
     def report(self) -> dict:
         backend = self.backend
         stats = self.stats
+        suggested = getattr(backend, "suggested_profiles", {})
+        rejected = [
+            f"bindings for {profile} rejected: {outcome}"
+            for profile, outcome in suggested.items()
+            if outcome != "accepted"
+        ]
         if "after_warm_up" in self.resources and "end" not in self.resources:
             self.resources["end"] = self._resources()
         return {
@@ -394,6 +437,7 @@ class FrameLoop:
             "views": backend.views,
             "swapchain_format": backend.swapchain_format,
             "interaction_profiles": backend.interaction_profiles(),
+            "suggested_bindings": suggested,
             "frames_submitted": stats.frames_submitted,
             "frames_rendered": stats.frames_rendered,
             "eye_ms": _summary(stats.eye_ms),
@@ -404,7 +448,9 @@ class FrameLoop:
                 max(stats.regenerating_gaps_ms, default=0.0), 2
             ),
             "view_matrices_differ": stats.views_differ and stats.frames_rendered > 0,
-            "terrain_meshes_built": self.renderer.terrain_meshes_built,
+            "terrain_meshes_built": self.renderer.terrain_meshes_built - self._builds_before_loop,
+            "head_level_of_detail_changes": stats.head_lod_changes,
+            "frames_where_eyes_disagree_on_level_of_detail": stats.eye_lod_disagreements,
             "final": {
                 "hours": round(self.controls.hours, 4),
                 "day_speed": self.controls.day_speed,
@@ -414,7 +460,7 @@ class FrameLoop:
             },
             "resources": self.resources,
             "states": stats.states,
-            "errors": stats.errors,
+            "errors": [*stats.errors, *rejected],
         }
 
 

@@ -92,10 +92,7 @@ class XrBackend:
                 "connect and switch on the headset, or use sand-editor vr --desktop"
             ) from None
         self.system = _text(xr.get_system_properties(instance, self.system_id).system_name)
-        # The spec requires this call before xrCreateSession with OpenGL.
-        import xr.ext.KHR.opengl_enable as gl_enable
-
-        requirements = gl_enable.get_graphics_requirements(instance, self.system_id)
+        requirements = gl_requirements(instance, self.system_id)
         self.windows = windows_factory()
         self._cleanup.append(self.windows.close)
         self.ctx = self.windows.ctx
@@ -215,7 +212,7 @@ class XrBackend:
                         suggested_bindings=bindings,
                     ),
                 )
-                self.suggested_profiles[profile] = None
+                self.suggested_profiles[profile] = "accepted"
             except xr.XrException as exc:
                 # One unknown path rejects the whole profile; the others still work.
                 self.suggested_profiles[profile] = f"{type(exc).__name__}: {exc}"
@@ -413,6 +410,21 @@ class XrBackend:
                 step()
             except Exception:  # noqa: BLE001 - tearing down: the rest must still go
                 pass
+
+
+def gl_requirements(instance, system_id):
+    """``xrGetOpenGLGraphicsRequirementsKHR``, which the spec requires before
+    ``xrCreateSession`` with OpenGL (called directly: pyopenxr's wrapper module refers to
+    Windows-only types at import)."""
+    function = ctypes.cast(
+        xr.get_instance_proc_addr(instance, "xrGetOpenGLGraphicsRequirementsKHR"),
+        xr.PFN_xrGetOpenGLGraphicsRequirementsKHR,
+    )
+    requirements = xr.GraphicsRequirementsOpenGLKHR()
+    result = xr.check_result(xr.Result(function(instance, system_id, ctypes.byref(requirements))))
+    if result.is_exception():
+        raise result
+    return requirements
 
 
 def _pose(pose) -> Pose:
