@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import moderngl
 import numpy as np
@@ -48,7 +49,7 @@ class PanelFrame:
     up: np.ndarray
     size: tuple[float, float]
 
-    @property
+    @cached_property
     def normal(self) -> np.ndarray:
         return np.cross(self.right, self.up)
 
