@@ -17,6 +17,17 @@ import moderngl
 
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
+from sand_editor.vr.glwindow import finish_without_gil
+
+
+class _OffLoopMaterial(SandMaterial):
+    """A material whose update lets the frame loop run while the new grains are drawn: the
+    build step reads a texture back (a wait that holds Python's lock), so the grains queued
+    before it are finished first with the lock released."""
+
+    def _build_textures(self, preset: Preset) -> None:
+        finish_without_gil()
+        super()._build_textures(preset)
 
 
 @dataclass
@@ -118,12 +129,12 @@ class GrainWorker:
                 if self._spare:
                     material = self._spare.pop()
                 else:
-                    material = SandMaterial(ctx, self._texture_size)
+                    material = _OffLoopMaterial(ctx, self._texture_size)
                     materials.append(material)
                 try:
                     material.update(preset)
                     # Everything written must be visible to the drawing context before use.
-                    ctx.finish()
+                    finish_without_gil()
                 except Exception as exc:  # a preset the generator rejects keeps the old one
                     self._spare.append(material)
                     self._ready.put(ReadyMaterial(None, preset, seq, received, str(exc)))

@@ -26,16 +26,31 @@ PANEL_TILT_DEG = 25.0  # leaning back, towards the sky
 PANEL_PIXELS = (768, 432)
 RAY_LENGTH_M = 3.0
 
-# Buttons in panel coordinates (u right, v up, 0..1): name → (u0, v0, u1, v1, label, command).
-_ROW = (0.04, 0.2)
+# Buttons in panel coordinates (u right, v up, 0..1), one row along the bottom edge:
+# name → (u0, v0, u1, v1, label, command).
+_BUTTON_ROW = [
+    ("earlier", "-1 h", Command("scrub", -1.0)),
+    ("later", "+1 h", Command("scrub", 1.0)),
+    ("play", "play", Command("play_pause")),
+    ("slower", "slower", Command("speed_step", -1)),
+    ("faster", "faster", Command("speed_step", 1)),
+    ("sand", "sand >", Command("next_preset")),
+    ("lambert", "Lambert", Command("toggle_lambert")),
+]
+_ROW_V = (0.04, 0.21)
+_ROW_U = (0.015, 0.985)
+_GAP_U = 0.008
+_WIDTH_U = (_ROW_U[1] - _ROW_U[0] - _GAP_U * (len(_BUTTON_ROW) - 1)) / len(_BUTTON_ROW)
 BUTTONS = {
-    "earlier": (0.02, *_ROW, 0.15, "−1 h", Command("scrub", -1.0)),
-    "later": (0.16, _ROW[0], 0.29, _ROW[1], "+1 h", Command("scrub", 1.0)),
-    "play": (0.30, _ROW[0], 0.46, _ROW[1], "play", Command("play_pause")),
-    "slower": (0.47, _ROW[0], 0.58, _ROW[1], "slower", Command("speed_step", -1)),
-    "faster": (0.59, _ROW[0], 0.70, _ROW[1], "faster", Command("speed_step", 1)),
-    "sand": (0.71, _ROW[0], 0.84, _ROW[1], "sand ▸", Command("next_preset")),
-    "lambert": (0.85, _ROW[0], 0.98, _ROW[1], "Lambert", Command("toggle_lambert")),
+    name: (
+        _ROW_U[0] + i * (_WIDTH_U + _GAP_U),
+        _ROW_V[0],
+        _ROW_U[0] + i * (_WIDTH_U + _GAP_U) + _WIDTH_U,
+        _ROW_V[1],
+        label,
+        command,
+    )
+    for i, (name, label, command) in enumerate(_BUTTON_ROW)
 }
 
 
@@ -179,15 +194,16 @@ class Workbench:
         width, height = PANEL_PIXELS
         image = Image.new("RGB", PANEL_PIXELS, (28, 24, 20))
         draw = ImageDraw.Draw(image)
-        big, small = _font(64), _font(30)
+        big, small = _font(96), _font(40)
         hours = controls.hours % 24.0
         clock = f"{int(hours):02d}:{int(round(hours % 1 * 60)) % 60:02d}"
-        draw.text((28, 20), clock, font=big, fill=(255, 236, 200))
+        draw.text((28, 12), clock, font=big, fill=(255, 236, 200))
         state = "playing" if controls.playing else "paused"
-        draw.text((260, 26), f"{state}, {_speed_text(controls.day_speed)}", font=small,
+        draw.text((330, 24), state, font=small, fill=(230, 220, 200))
+        draw.text((330, 70), _speed_text(controls.day_speed), font=small,
                   fill=(230, 220, 200))  # fmt: skip
-        draw.text((28, 120), f"sand: {preset_name}", font=small, fill=(230, 220, 200))
-        draw.text((28, 170), f"mode: {controls.mode}", font=small, fill=(230, 220, 200))
+        draw.text((28, 150), f"sand: {preset_name}", font=small, fill=(230, 220, 200))
+        draw.text((28, 205), f"mode: {controls.mode}", font=small, fill=(230, 220, 200))
         hovered = {name for name in self.hovered.values() if name}
         for name, (u0, v0, u1, v1, label, _command) in BUTTONS.items():
             if name == "play":
@@ -196,7 +212,7 @@ class Workbench:
             fill = (214, 160, 80) if name in hovered else (70, 60, 50)
             draw.rounded_rectangle(box, radius=10, fill=fill, outline=(150, 130, 100), width=2)
             text_width = draw.textlength(label, font=_font(24))
-            draw.text(((box[0] + box[2] - text_width) / 2, box[1] + 22), label, font=_font(24),
+            draw.text(((box[0] + box[2] - text_width) / 2, box[1] + 20), label, font=_font(24),
                       fill=(255, 255, 255))  # fmt: skip
         return image
 

@@ -54,6 +54,14 @@ def test_rays_that_miss_or_come_from_behind_press_nothing(bench):
     assert bench.aim("left", None) is None
 
 
+def test_buttons_lie_on_the_panel_without_overlapping():
+    boxes = sorted(b[:4] for b in BUTTONS.values())
+    for u0, v0, u1, v1 in boxes:
+        assert 0 <= u0 < u1 <= 1 and 0 <= v0 < v1 <= 1
+    for left, right in zip(boxes, boxes[1:], strict=False):
+        assert left[2] < right[0]
+
+
 def test_button_at_between_buttons_is_none():
     assert button_at(0.5, 0.9) is None
 
