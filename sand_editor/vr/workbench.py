@@ -189,31 +189,39 @@ class Workbench:
 
     # ---- drawing ---------------------------------------------------------------------------
 
+    def panel_text(self, controls: ViewerControls, preset_name: str) -> tuple:
+        """What the panel shows: it is drawn again only when this changes."""
+        minutes = int(math.floor((controls.hours % 24.0) * 60.0)) % (24 * 60)
+        return (
+            f"{minutes // 60:02d}:{minutes % 60:02d}",
+            "playing" if controls.playing else "paused",
+            _speed_text(controls.day_speed),
+            f"sand: {preset_name}",
+            f"mode: {controls.mode}",
+            "pause" if controls.playing else "play",
+            tuple(sorted(name for name in self.hovered.values() if name)),
+        )
+
     def panel_image(self, controls: ViewerControls, preset_name: str) -> Image.Image:
         """The panel as an RGB image (top row first)."""
+        clock, state, speed, sand, mode, play, hovered = self.panel_text(controls, preset_name)
         width, height = PANEL_PIXELS
         image = Image.new("RGB", PANEL_PIXELS, (28, 24, 20))
         draw = ImageDraw.Draw(image)
-        big, small = _font(96), _font(40)
-        hours = controls.hours % 24.0
-        clock = f"{int(hours):02d}:{int(round(hours % 1 * 60)) % 60:02d}"
+        big, small, label_font = _font(96), _font(40), _font(24)
+        text_colour = (230, 220, 200)
         draw.text((28, 12), clock, font=big, fill=(255, 236, 200))
-        state = "playing" if controls.playing else "paused"
-        draw.text((330, 24), state, font=small, fill=(230, 220, 200))
-        draw.text((330, 70), _speed_text(controls.day_speed), font=small,
-                  fill=(230, 220, 200))  # fmt: skip
-        draw.text((28, 150), f"sand: {preset_name}", font=small, fill=(230, 220, 200))
-        draw.text((28, 205), f"mode: {controls.mode}", font=small, fill=(230, 220, 200))
-        hovered = {name for name in self.hovered.values() if name}
+        draw.text((330, 24), state, font=small, fill=text_colour)
+        draw.text((330, 70), speed, font=small, fill=text_colour)
+        draw.text((28, 150), sand, font=small, fill=text_colour)
+        draw.text((28, 205), mode, font=small, fill=text_colour)
         for name, (u0, v0, u1, v1, label, _command) in BUTTONS.items():
-            if name == "play":
-                label = "pause" if controls.playing else "play"
+            label = play if name == "play" else label
             box = (u0 * width, (1 - v1) * height, u1 * width, (1 - v0) * height)
             fill = (214, 160, 80) if name in hovered else (70, 60, 50)
             draw.rounded_rectangle(box, radius=10, fill=fill, outline=(150, 130, 100), width=2)
-            text_width = draw.textlength(label, font=_font(24))
-            draw.text(((box[0] + box[2] - text_width) / 2, box[1] + 20), label, font=_font(24),
-                      fill=(255, 255, 255))  # fmt: skip
+            left = (box[0] + box[2] - draw.textlength(label, font=label_font)) / 2
+            draw.text((left, box[1] + 20), label, font=label_font, fill=(255, 255, 255))
         return image
 
     def draw(
@@ -229,7 +237,7 @@ class Workbench:
         framebuffer's ``viewport``."""
         if self._ctx is None:
             self._create(ctx)
-        key = (controls, preset_name, tuple(sorted(n for n in self.hovered.values() if n)))
+        key = self.panel_text(controls, preset_name)
         if key != self._panel_key:
             image = self.panel_image(controls, preset_name).transpose(Image.FLIP_TOP_BOTTOM)
             self._texture.write(image.tobytes())

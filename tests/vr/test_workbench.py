@@ -77,6 +77,21 @@ def test_panel_shows_time_and_hovered_button(bench):
     assert np.any(other_time[:100] != np.asarray(bench.panel_image(ViewerControls(), "x"))[:100])
 
 
+@pytest.mark.parametrize(
+    "hours,clock", [(0.0, "00:00"), (16.999, "16:59"), (23.9999, "23:59"), (24.0, "00:00")]
+)
+def test_the_clock_reads_the_current_minute(bench, hours, clock):
+    assert bench.panel_text(ViewerControls(hours=hours), "x")[0] == clock
+
+
+def test_the_panel_is_drawn_again_only_when_what_it_shows_changes(bench):
+    same_minute = [ViewerControls(hours=10.0 + i * 0.001) for i in range(5)]
+    assert len({bench.panel_text(c, "x") for c in same_minute}) == 1
+    assert bench.panel_text(ViewerControls(hours=10.02), "x") != bench.panel_text(
+        ViewerControls(hours=10.0), "x"
+    )
+
+
 def test_box_faces_point_outwards_with_tangents_in_the_face():
     mesh = box_mesh((1.0, 2.0, 3.0), (0.4, 0.2, 0.6))
     assert len(mesh["index"]) == 36
