@@ -115,8 +115,18 @@ class GrainWorker:
             self._start_error = exc
             self._started.set()
             return
-        self._started.set()
         materials: list[SandMaterial] = []
+        try:
+            # Both materials are made now, before the first frame: making one compiles its
+            # programs and computes its ripple maps, half a second that would stall frames.
+            for _ in range(2):
+                materials.append(_OffLoopMaterial(ctx, self._texture_size))
+            self._spare.extend(materials)
+        except BaseException as exc:
+            self._start_error = exc
+            self._started.set()
+            return
+        self._started.set()
         try:
             while True:
                 job = self._requests.get()
@@ -128,7 +138,7 @@ class GrainWorker:
                 preset, seq, received = job
                 if self._spare:
                     material = self._spare.pop()
-                else:
+                else:  # both taken: the one on screen comes back with the next swap
                     material = _OffLoopMaterial(ctx, self._texture_size)
                     materials.append(material)
                 try:
