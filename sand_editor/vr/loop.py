@@ -138,6 +138,7 @@ class FrameLoop:
         self.pending_applied: tuple[int | None, float] | None = None
         self.resources: dict[str, dict] = {}
         self._builds_before_loop = 0
+        self.stop_requested = False  # set from a signal handler: end the session cleanly
 
     # ---- start and end -------------------------------------------------------------------
 
@@ -182,6 +183,8 @@ class FrameLoop:
         backend = self.backend
         stats = self.stats
         while not backend.exiting:
+            if self.stop_requested:
+                backend.request_exit()
             for state in backend.poll_events():
                 stats.states.append(state)
                 self.link.send(type="state", state=state)
