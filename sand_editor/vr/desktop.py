@@ -74,8 +74,10 @@ class DesktopBackend:
         return entered
 
     def request_exit(self) -> None:
-        if self._state in ("FOCUSED", "VISIBLE", "SYNCHRONIZED", "READY") and not self._states:
+        if self._state == "FOCUSED" and not self._states:
             self._states = list(_CLOSING)
+        elif self._state is None:  # asked before the session began: nothing to stop
+            self._states = ["EXITING"]
 
     def interaction_profiles(self) -> dict[str, str | None]:
         return {"left": None, "right": "keyboard and mouse"}
