@@ -101,7 +101,9 @@ class DesktopBackend:
             EyeView(head.translated(rotation[:, 0] * side * IPD_M / 2), self.fov)
             for side in (-1.0, 1.0)
         ]
-        return Frame(now, True, eyes, self._input(head))
+        start = time.perf_counter()
+        controls = self._input(head)
+        return Frame(now, True, eyes, controls, (time.perf_counter() - start) * 1e3)
 
     @contextmanager
     def eye_target(self, index: int):
