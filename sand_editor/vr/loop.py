@@ -455,6 +455,7 @@ class FrameLoop:
             "eye_ms": _summary(stats.eye_ms),
             "frame_overhead_ms": _summary(stats.overhead_ms),
             "submit_ms": _summary(stats.submit_ms),
+            "frame_gap_ms": _summary(stats.gaps_ms),
             "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
             "max_frame_gap_at_frame": stats.max_gap_frame,
             "max_frame_gap_while_regenerating_ms": round(
