@@ -38,6 +38,7 @@ class DesktopBackend:
 
     name = "desktop"
     floor_level = True
+    reference_space = "STAGE"  # the floor is y = 0, as in a headset's STAGE space
     swapchain_format = "window framebuffer (sRGB-encoded bytes)"
 
     def __init__(self, windows, size: tuple[int, int]) -> None:

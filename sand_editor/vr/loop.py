@@ -65,6 +65,7 @@ class Backend(Protocol):
     views: list[dict]  # per eye: width, height, fov (four angles)
     swapchain_format: str
     floor_level: bool  # tracking space y = 0 is the floor (STAGE)
+    reference_space: str  # STAGE or LOCAL
     exiting: bool
 
     def poll_events(self) -> list[str]: ...  # session states entered since the last call
@@ -448,6 +449,7 @@ class FrameLoop:
             "system": backend.system,
             "views": backend.views,
             "swapchain_format": backend.swapchain_format,
+            "reference_space": backend.reference_space,
             "interaction_profiles": backend.interaction_profiles(),
             "suggested_bindings": suggested,
             "frames_submitted": stats.frames_submitted,

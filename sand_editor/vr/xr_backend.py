@@ -117,6 +117,7 @@ class XrBackend:
         space_type = (
             xr.ReferenceSpaceType.STAGE if self.floor_level else (xr.ReferenceSpaceType.LOCAL)
         )
+        self.reference_space = space_type.name
         self.space = xr.create_reference_space(
             self.session, xr.ReferenceSpaceCreateInfo(reference_space_type=space_type)
         )
