@@ -93,6 +93,7 @@ class _Stats:
         self.eye_ms: list[float] = []
         self.overhead_ms: list[float] = []
         self.submit_ms: list[float] = []
+        self.wait_ms: list[float] = []
         self.gaps_ms: list[float] = []
         self.regenerating_gaps_ms: list[float] = []
         self.last_submit: float | None = None
@@ -192,11 +193,13 @@ class FrameLoop:
                 self.link.send(type="state", state=state)
             self._handle_link()
             regenerating = self.pending is not None or self.worker.busy
+            wait_start = time.perf_counter()
             frame = backend.wait_frame()
             if frame is None:
                 time.sleep(0.005)
                 continue
             loop_start = time.perf_counter()
+            stats.wait_ms.append((loop_start - wait_start) * 1e3 - frame.input_ms)
             eye_ms = self._frame(frame)
             submit_start = time.perf_counter()
             own_ms = (submit_start - loop_start) * 1e3 - sum(eye_ms or ()) + frame.input_ms
@@ -456,6 +459,7 @@ class FrameLoop:
             "frames_rendered": stats.frames_rendered,
             "eye_ms": _summary(stats.eye_ms),
             "frame_overhead_ms": _summary(stats.overhead_ms),
+            "wait_ms": _summary(stats.wait_ms),
             "submit_ms": _summary(stats.submit_ms),
             "frame_gap_ms": _summary(stats.gaps_ms),
             "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
