@@ -79,6 +79,56 @@ def _cmd_render(args) -> int:
     return 0
 
 
+def _render_scale(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.05 <= value <= 4.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number from 0.05 to 4")
+    return value
+
+
+def _day_speed(text: str) -> float:
+    from sand_editor.vr.link import MAX_DAY_SPEED
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 <= value <= MAX_DAY_SPEED:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected simulated hours per second from 0 to {MAX_DAY_SPEED:g}"
+        )
+    return value
+
+
+def _cmd_vr(args) -> int:
+    from sand_editor.render.sky import parse_time
+    from sand_editor.vr.loop import ViewerOptions
+    from sand_editor.vr.viewer import run_viewer
+
+    path = preset_path(args.preset)
+    if args.frames is not None and args.frames < 1:
+        raise CommandError(f"--frames must be at least 1, got {args.frames}")
+    options = ViewerOptions(
+        preset=Preset.load(path),
+        preset_label=path.stem,
+        hours=parse_time(args.time) % 24.0,
+        day_speed=args.day_speed,
+        mode=args.mode,
+        frames=args.frames,
+        screenshot=Path(args.screenshot) if args.screenshot else None,
+    )
+    return run_viewer(
+        options,
+        desktop=args.desktop,
+        control=args.control,
+        report_path=Path(args.report) if args.report else None,
+        render_scale=args.render_scale,
+    )
+
+
 def _cmd_bench(args) -> int:
     if args.what == "generator":
         from sand_editor.bench.generator import main as bench_generator
@@ -125,6 +175,39 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("--sphere", action="store_true", help="put a sand sphere in view")
     render.set_defaults(run=_cmd_render)
 
+    vr = sub.add_parser("vr", help="view the sand in VR (OpenXR), or in a desktop stereo preview")
+    vr.add_argument("preset", nargs="?", help="preset file or bundled preset name")
+    vr.add_argument("--desktop", action="store_true", help="both eyes side by side in a window")
+    vr.add_argument("--control", choices=["stdio"], help="take commands from the editor on stdin")
+    vr.add_argument("--frames", type=int, metavar="N", help="submit this many frames, then exit")
+    vr.add_argument(
+        "--report", metavar="FILE.json", help="write what ran and how fast as JSON to this file"
+    )
+    vr.add_argument(
+        "--render-scale",
+        type=_render_scale,
+        default=1.0,
+        metavar="S",
+        help="× the recommended eye size",
+    )
+    vr.add_argument(
+        "--time", default="10:00", metavar="HH:MM", help="time of day to start at, HH:MM"
+    )
+    vr.add_argument(
+        "--day-speed",
+        type=_day_speed,
+        default=0.0,
+        metavar="H",
+        help="simulated hours per second (0: still)",
+    )
+    vr.add_argument("--mode", choices=MODES, default="full", help="what to show")
+    vr.add_argument(
+        "--screenshot",
+        metavar="FILE.png",
+        help="save both eyes of the last frame side by side (PNG)",
+    )
+    vr.set_defaults(run=_cmd_vr)
+
     bench = sub.add_parser("bench", help="measure speed against error")
     bench.add_argument("what", choices=["generator", "render"], help="what to measure")
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
@@ -139,7 +222,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    if not argv or (argv[0] not in {"edit", "bake", "render", "bench", "-h", "--help"}):
+    if not argv or (argv[0] not in {"edit", "bake", "render", "vr", "bench", "-h", "--help"}):
         argv = ["edit", *argv]
     args = _parser().parse_args(argv)
     try:

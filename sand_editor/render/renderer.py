@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -64,10 +65,22 @@ class _Mesh:
             obj.release()
 
 
+@dataclass(frozen=True)
+class FrameScene:
+    """What one frame draws in the sand material, chosen once from the head: the terrain's
+    level of detail, the sphere and the fixed objects. Every eye of the frame draws the same
+    meshes, so two eyes never disagree and nothing is rebuilt between them."""
+
+    terrain: _Mesh
+    objects: tuple[_Mesh, ...] = ()
+
+
 class SandRenderer:
     """Draws the desert in the sand material.
 
     ``show_sphere`` puts a sand-covered sphere on the ground near what the camera looks at.
+    ``add_object`` adds fixed sand-covered meshes (a workbench, a box of sand).
+    ``terrain_meshes_built`` counts terrain level-of-detail rebuilds.
     """
 
     def __init__(self, ctx: moderngl.Context, terrain: DuneTerrain | None = None) -> None:
@@ -88,13 +101,32 @@ class SandRenderer:
         self._terrain_key = None
         self._sphere_mesh: _Mesh | None = None
         self._sphere_key = None
+        self._fixed_objects: list[_Mesh] = []
         self._readback: moderngl.Framebuffer | None = None
+        self.terrain_meshes_built = 0
 
     def set_material(self, material) -> None:
         """The ``SandMaterial`` (anything with ``bind(program, first_unit) -> int``)."""
         self.material = material
 
+    def add_object(self, mesh: dict, origin) -> None:
+        """A fixed object in the sand material: ``mesh`` as ``terrain.sphere_mesh`` makes it,
+        positions relative to ``origin`` (world, float64)."""
+        origin = np.asarray(origin, dtype=np.float64)
+        self._fixed_objects.append(_Mesh(self.ctx, self._surfaces, mesh, origin))
+
     # ---- frame ------------------------------------------------------------------------------
+
+    def prepare_frame(self, head: Camera, show_sphere: bool | None = None) -> FrameScene:
+        """The scene objects for one frame seen from ``head`` (for stereo, the point between
+        the eyes looking where the head looks); pass it to ``render`` for every eye. It holds
+        until the next ``prepare_frame``, which may replace the meshes it names."""
+        objects = list(self._fixed_objects)
+        if self.show_sphere if show_sphere is None else show_sphere:
+            sphere = self._sphere(head)
+            if sphere is not None:
+                objects.append(sphere)
+        return FrameScene(self._terrain(head.eye), tuple(objects))
 
     def render(
         self,
@@ -105,11 +137,14 @@ class SandRenderer:
         viewport: tuple[int, int, int, int] | None = None,
         exposure: float | None = None,
         show_sphere: bool | None = None,
+        scene: FrameScene | None = None,
     ) -> dict:
         """Draw one frame into ``viewport`` of ``target`` (its whole area by default).
 
-        Debug modes (``blend``, ``normals``, ``mip``) write the material's values unexposed and
-        unblended, over black. Returns CPU milliseconds per stage and the exposure used.
+        ``scene`` is what ``prepare_frame`` chose for this frame; without it the scene is chosen
+        from ``camera`` (one view, as in the editor). Debug modes (``blend``, ``normals``,
+        ``mip``) write the material's values unexposed and unblended, over black. Returns CPU
+        milliseconds per stage and the exposure used.
         """
         check_mode(mode)
         debug = mode in DEBUG_MODES
@@ -119,12 +154,13 @@ class SandRenderer:
         times = {}
         start = time.perf_counter()
         self.post.resize(viewport[2], viewport[3])
-        scene = self.post.scene_framebuffer
-        eye = camera.eye
+        if scene is None:
+            scene = self.prepare_frame(camera, show_sphere)
+        hdr_target = self.post.scene_framebuffer
 
-        with drawing_into(ctx, scene):
+        with drawing_into(ctx, hdr_target):
             ctx.viewport = (0, 0, *self.post.size)
-            scene.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+            hdr_target.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
             if not debug:
                 self._draw_sky(camera, sky)
             times["sky_ms"] = _lap(start)
@@ -132,11 +168,8 @@ class SandRenderer:
             ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
             try:
                 self._prepare_surface(camera, sky, mode)
-                self._draw(self._terrain(eye), camera)
-                if self.show_sphere if show_sphere is None else show_sphere:
-                    sphere = self._sphere(camera)
-                    if sphere is not None:
-                        self._draw(sphere, camera)
+                for mesh in (scene.terrain, *scene.objects):
+                    self._draw(mesh, camera)
             finally:
                 ctx.disable(moderngl.DEPTH_TEST)
             times["surface_ms"] = _lap(start) - times["sky_ms"]
@@ -224,10 +257,10 @@ class SandRenderer:
 
     # ---- meshes -----------------------------------------------------------------------------
 
-    def _terrain(self, eye: np.ndarray) -> _Mesh:
-        """Rings centred below the eye, finest where the eye is closest to the ground; rebuilt
-        only when the eye has moved by a fraction of the finest ring spacing, or its height
-        above the ground changed by a factor of two."""
+    def terrain_level_of_detail(self, eye) -> tuple:
+        """(finest ring spacing, centre, outer radius) of the terrain mesh for an eye: the mesh
+        is rebuilt only when this changes, i.e. when the eye has moved by a fraction of the
+        finest ring spacing, or its height above the ground changed by a factor of two."""
         ground = float(self.terrain.height(eye[0], eye[2]))
         clearance = max(float(eye[1]) - ground, 1e-6)
         inner = 2.0 ** math.floor(math.log2(min(max(0.1 * clearance, 1e-6), 0.5)))
@@ -235,7 +268,12 @@ class SandRenderer:
         center = (round(eye[0] / snap) * snap, round(eye[2] / snap) * snap)
         # High above the dunes the horizon lies far away: the desert reaches it.
         outer = max(self.terrain.extent_m, 2.0 ** math.ceil(math.log2(50.0 * clearance)))
-        key = (inner, center, outer)
+        return (inner, center, outer)
+
+    def _terrain(self, eye: np.ndarray) -> _Mesh:
+        """Rings centred below the eye, finest where the eye is closest to the ground."""
+        key = self.terrain_level_of_detail(eye)
+        inner, center, outer = key
         if key != self._terrain_key:
             origin = np.array([center[0], float(self.terrain.height(*center)), center[1]])
             mesh = self.terrain.radial_mesh(center, inner, outer, TERRAIN_SEGMENTS, origin=origin)
@@ -243,6 +281,7 @@ class SandRenderer:
                 self._terrain_mesh.release()
             self._terrain_mesh = _Mesh(self.ctx, self._surfaces, mesh, origin)
             self._terrain_key = key
+            self.terrain_meshes_built += 1
         return self._terrain_mesh
 
     def _sphere(self, camera: Camera) -> _Mesh | None:
@@ -277,9 +316,10 @@ class SandRenderer:
             self._readback = None
 
     def release(self) -> None:
-        for mesh in (self._terrain_mesh, self._sphere_mesh):
+        for mesh in (self._terrain_mesh, self._sphere_mesh, *self._fixed_objects):
             if mesh is not None:
                 mesh.release()
+        self._fixed_objects.clear()
         self._terrain_mesh = self._sphere_mesh = None
         self._terrain_key = self._sphere_key = None
         self._release_readback()

@@ -15,6 +15,8 @@ import pytest
 import xr
 from xr.utils.gl import GLXGraphicsBinding
 
+from sand_editor.vr.xr_backend import create_instance, gl_requirements
+
 pytestmark = pytest.mark.openxr
 
 GL_RGBA8 = 0x8058
@@ -23,21 +25,6 @@ FRAMES = 30
 STEREO = xr.ViewConfigurationType.PRIMARY_STEREO
 # One colour per eye, so a swapped or unrendered eye shows up in the read-back.
 EYE_COLOURS = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
-
-
-def _create_instance() -> xr.Instance:
-    available = xr.enumerate_instance_extension_properties()
-    assert xr.KHR_OPENGL_ENABLE_EXTENSION_NAME in available
-    return xr.create_instance(
-        xr.InstanceCreateInfo(
-            application_info=xr.ApplicationInfo(
-                application_name="sand-editor-vr-smoke",
-                engine_name="sand-editor",
-                api_version=xr.Version(1, 0, xr.XR_VERSION_PATCH),
-            ),
-            enabled_extension_names=[xr.KHR_OPENGL_ENABLE_EXTENSION_NAME],
-        )
-    )
 
 
 def _get_hmd(instance: xr.Instance) -> xr.SystemId:
@@ -49,7 +36,7 @@ def _text(value) -> str:
 
 
 def test_runtime_reports_simulated_hmd():
-    instance = _create_instance()
+    instance = create_instance()
     try:
         runtime = _text(xr.get_instance_properties(instance).runtime_name)
         system = _get_hmd(instance)
@@ -97,25 +84,12 @@ class _GlfwContext:
         glfw.terminate()
 
 
-def _gl_requirements(instance: xr.Instance, system: xr.SystemId):
-    # The spec makes this call mandatory before xrCreateSession with OpenGL.
-    fn = ctypes.cast(
-        xr.get_instance_proc_addr(instance, "xrGetOpenGLGraphicsRequirementsKHR"),
-        xr.PFN_xrGetOpenGLGraphicsRequirementsKHR,
-    )
-    req = xr.GraphicsRequirementsOpenGLKHR()
-    result = xr.check_result(xr.Result(fn(instance, system, ctypes.byref(req))))
-    if result.is_exception():
-        raise result
-    return req
-
-
 def test_gl_session_renders_frames_through_moderngl():
-    instance = _create_instance()
+    instance = create_instance()
     cleanup = []
     try:
         system = _get_hmd(instance)
-        req = _gl_requirements(instance, system)
+        req = gl_requirements(instance, system)
         min_major = req.min_api_version_supported.major
         assert min_major <= 4, f"runtime wants OpenGL {min_major}.x"
 

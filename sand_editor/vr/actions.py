@@ -1,0 +1,202 @@
+"""What the viewer's controls do: controller (or keyboard) input → commands → viewer state.
+
+Pure functions and plain data: the OpenXR backend fills ``InputState`` from its actions, the
+desktop backend from the keyboard and mouse, and both go through ``commands_from_input``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+from sand_editor.vr.link import MAX_DAY_SPEED
+from sand_editor.vr.xrmath import Pose
+
+STICK_DEAD_ZONE = 0.2
+SCRUB_HOURS_PER_S = 3.0  # full stick deflection
+SPEED_CHANGE_PER_S = 2.0  # hours per second, per second, at full deflection
+TRIGGER_PRESS = 0.75
+# Panel steps of the day speed, simulated hours per real second (0 = paused clock).
+SPEED_STEPS = (0.0, 1 / 60, 0.1, 0.25, 0.5, 1.0, 2.0, 6.0, 24.0)
+COMPARISON_MODE = "lambert"
+
+HANDS = ("left", "right")
+
+# OpenXR actions: name → (type, localized name). Types: "boolean", "float", "vector2f", "pose".
+ACTIONS = {
+    "scrub": ("vector2f", "Scrub time and day speed"),
+    "select": ("float", "Press a panel button"),
+    "play_pause": ("boolean", "Play or pause the day"),
+    "next_preset": ("boolean", "Next sand"),
+    "toggle_lambert": ("boolean", "Compare with Lambert"),
+    "aim": ("pose", "Aim"),
+}
+
+# Suggested bindings per interaction profile: (action, component under /user/hand/<hand>/).
+# Each path must exist in the profile for that hand: one unknown path rejects the whole profile.
+_BOTH = HANDS
+BINDINGS: dict[str, list[tuple[str, tuple[str, ...], str]]] = {
+    "/interaction_profiles/khr/simple_controller": [
+        ("select", _BOTH, "input/select/click"),
+        ("play_pause", _BOTH, "input/menu/click"),
+        ("aim", _BOTH, "input/aim/pose"),
+    ],
+    "/interaction_profiles/oculus/touch_controller": [
+        ("scrub", _BOTH, "input/thumbstick"),
+        ("select", _BOTH, "input/trigger/value"),
+        ("play_pause", ("left",), "input/x/click"),
+        ("play_pause", ("right",), "input/a/click"),
+        ("next_preset", ("left",), "input/y/click"),
+        ("next_preset", ("right",), "input/b/click"),
+        ("toggle_lambert", _BOTH, "input/thumbstick/click"),
+        ("aim", _BOTH, "input/aim/pose"),
+    ],
+    "/interaction_profiles/valve/index_controller": [
+        ("scrub", _BOTH, "input/thumbstick"),
+        ("select", _BOTH, "input/trigger/value"),
+        ("play_pause", _BOTH, "input/a/click"),
+        ("next_preset", _BOTH, "input/b/click"),
+        ("toggle_lambert", _BOTH, "input/thumbstick/click"),
+        ("aim", _BOTH, "input/aim/pose"),
+    ],
+    "/interaction_profiles/microsoft/motion_controller": [
+        ("scrub", _BOTH, "input/thumbstick"),
+        ("select", _BOTH, "input/trigger/value"),
+        ("play_pause", _BOTH, "input/menu/click"),
+        ("next_preset", _BOTH, "input/squeeze/click"),
+        ("toggle_lambert", _BOTH, "input/trackpad/click"),
+        ("aim", _BOTH, "input/aim/pose"),
+    ],
+}
+
+
+def binding_paths(profile: str) -> list[tuple[str, str]]:
+    """(action, full input path) pairs suggested for ``profile``."""
+    return [
+        (action, f"/user/hand/{hand}/{component}")
+        for action, hands, component in BINDINGS[profile]
+        for hand in hands
+    ]
+
+
+@dataclass(frozen=True)
+class HandInput:
+    """One hand's controls at one moment; ``aim`` is None while not tracked."""
+
+    stick: tuple[float, float] = (0.0, 0.0)
+    select: float = 0.0
+    play_pause: bool = False
+    next_preset: bool = False
+    toggle_lambert: bool = False
+    aim: Pose | None = None
+
+
+@dataclass(frozen=True)
+class InputState:
+    left: HandInput = field(default_factory=HandInput)
+    right: HandInput = field(default_factory=HandInput)
+
+    def hands(self):
+        return (("left", self.left), ("right", self.right))
+
+
+@dataclass(frozen=True)
+class Command:
+    """``kind``: ``scrub`` (``value`` hours), ``speed`` (``value`` hours/s added),
+    ``speed_step`` (±1 along SPEED_STEPS), ``play_pause``, ``next_preset``, ``toggle_lambert``,
+    ``press`` (trigger pulled; ``hand`` aims at something)."""
+
+    kind: str
+    value: float = 0.0
+    hand: str = ""
+
+
+def _dead_zone(value: float) -> float:
+    if not math.isfinite(value) or abs(value) <= STICK_DEAD_ZONE:
+        return 0.0
+    # Rescaled so the response starts at 0 just outside the dead zone.
+    sign = 1.0 if value > 0 else -1.0
+    return sign * min((abs(value) - STICK_DEAD_ZONE) / (1.0 - STICK_DEAD_ZONE), 1.0)
+
+
+def commands_from_input(previous: InputState, current: InputState, dt_s: float) -> list[Command]:
+    """Commands for the change from ``previous`` to ``current`` over ``dt_s`` seconds: sticks
+    act continuously (x scrubs the time, y changes the day speed), buttons and the trigger on
+    their press only."""
+    dt_s = dt_s if math.isfinite(dt_s) and dt_s > 0 else 0.0
+    commands = []
+    scrub = speed = 0.0
+    for (hand, now), (_, before) in zip(current.hands(), previous.hands(), strict=True):
+        scrub += _dead_zone(now.stick[0]) * SCRUB_HOURS_PER_S * dt_s
+        speed += _dead_zone(now.stick[1]) * SPEED_CHANGE_PER_S * dt_s
+        for kind in ("play_pause", "next_preset", "toggle_lambert"):
+            if getattr(now, kind) and not getattr(before, kind):
+                commands.append(Command(kind, hand=hand))
+        if now.select >= TRIGGER_PRESS and before.select < TRIGGER_PRESS:
+            commands.append(Command("press", hand=hand))
+    if scrub:
+        commands.insert(0, Command("scrub", scrub))
+    if speed:
+        commands.insert(0, Command("speed", speed))
+    return commands
+
+
+@dataclass(frozen=True)
+class ViewerControls:
+    """What the user controls: the clock, the sand shown and the render mode.
+
+    ``presets`` are names shown on the panel; ``preset_index`` picks one.
+    """
+
+    hours: float = 10.0
+    day_speed: float = 0.0
+    playing: bool = False
+    preset_index: int = 0
+    preset_count: int = 1
+    mode: str = "full"
+    previous_mode: str = "full"
+
+    def advanced(self, seconds: float) -> ViewerControls:
+        """The clock after ``seconds`` of real time (a paused day stands still)."""
+        if not self.playing or not math.isfinite(seconds) or seconds <= 0:
+            return self
+        return replace(self, hours=(self.hours + seconds * self.day_speed) % 24.0)
+
+
+def apply_command(controls: ViewerControls, command: Command) -> ViewerControls:
+    """The state after ``command``; ``press`` is the workbench's to resolve and changes
+    nothing here."""
+    kind = command.kind
+    if kind == "scrub":
+        return replace(controls, hours=_wrap_hours(controls.hours + command.value))
+    if kind == "speed":
+        speed = min(max(controls.day_speed + command.value, 0.0), MAX_DAY_SPEED)
+        return replace(controls, day_speed=speed)
+    if kind == "speed_step":
+        return replace(controls, day_speed=_step_speed(controls.day_speed, int(command.value)))
+    if kind == "play_pause":
+        playing = not controls.playing
+        # Playing a day whose speed is 0 would look broken: start it at real-time-ish speed.
+        speed = controls.day_speed if controls.day_speed > 0 or not playing else SPEED_STEPS[3]
+        return replace(controls, playing=playing, day_speed=speed)
+    if kind == "next_preset":
+        count = max(controls.preset_count, 1)
+        return replace(controls, preset_index=(controls.preset_index + 1) % count)
+    if kind == "toggle_lambert":
+        if controls.mode == COMPARISON_MODE:
+            back = controls.previous_mode if controls.previous_mode != COMPARISON_MODE else "full"
+            return replace(controls, mode=back)
+        return replace(controls, mode=COMPARISON_MODE, previous_mode=controls.mode)
+    return controls
+
+
+def _wrap_hours(hours: float) -> float:
+    if not math.isfinite(hours):
+        return 0.0
+    wrapped = hours % 24.0
+    return 0.0 if wrapped >= 24.0 else wrapped
+
+
+def _step_speed(speed: float, steps: int) -> float:
+    nearest = min(range(len(SPEED_STEPS)), key=lambda i: abs(SPEED_STEPS[i] - speed))
+    return SPEED_STEPS[min(max(nearest + steps, 0), len(SPEED_STEPS) - 1)]

@@ -1,0 +1,515 @@
+"""The frame loop shared by the headset and the desktop preview.
+
+A backend (``xr_backend.XrBackend`` or ``desktop.DesktopBackend``) supplies session states,
+frames with eye poses and fields of view, controller input and one framebuffer per eye; the loop
+does everything else: the link, the controls, the clock, new grains off the loop, the scene
+chosen once per frame from the head, each eye through the one ``SandRenderer``, and the report.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from sand_editor.preset import Preset, PresetError
+from sand_editor.render.modes import MODES
+from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.sky import sky_at
+from sand_editor.resources import presets_dir
+from sand_editor.vr._files import read_pixels, save_side_by_side
+from sand_editor.vr._report import FrameStats, summary
+from sand_editor.vr._resources import gl_object_counts, resident_mb
+from sand_editor.vr.actions import (
+    InputState,
+    ViewerControls,
+    apply_command,
+    commands_from_input,
+)
+from sand_editor.vr.errors import NoHeadsetError
+from sand_editor.vr.glwindow import finish_without_gil
+from sand_editor.vr.grains import GrainWorker
+from sand_editor.vr.link import LinkError, check_time_fields
+from sand_editor.vr.workbench import Workbench
+from sand_editor.vr.xrmath import Fov, Pose, eye_camera
+
+NEAR_M = 0.005  # a few millimetres: the sand can be inspected from that close
+FAR_M = 20000.0
+STANDING_EYE_HEIGHT_M = 1.6
+TIME_MESSAGE_INTERVAL_S = 0.2  # at most ~5 time messages a second while scrubbing
+MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
+SESSION_NOTICE_S = 10.0  # waiting this long for the session to run: tell the user
+SESSION_TIMEOUT_S = 60.0  # ... and give up with --frames (tests, support runs)
+WARM_UP_FRAMES = 50  # the report's resource counts are taken here and at the end
+
+
+@dataclass
+class EyeView:
+    pose: Pose  # in the tracking space
+    fov: Fov
+
+
+@dataclass
+class Frame:
+    """One frame as the backend predicts it: ``display_time_s`` (seconds, any origin)."""
+
+    display_time_s: float
+    should_render: bool
+    eyes: list[EyeView]
+    input: InputState = field(default_factory=InputState)
+    input_ms: float = 0.0  # reading the controls: the viewer's own work, part of the overhead
+
+
+class Backend(Protocol):
+    name: str  # "xr" or "desktop"
+    runtime: str
+    system: str
+    views: list[dict]  # per eye: width, height, fov (four angles)
+    swapchain_format: str
+    floor_level: bool  # tracking space y = 0 is the floor (STAGE)
+    reference_space: str  # STAGE or LOCAL
+    exiting: bool
+
+    def poll_events(self) -> list[str]: ...  # session states entered since the last call
+    def wait_frame(self) -> Frame | None: ...  # None while the session is not running
+    def eye_target(self, index: int): ...  # context manager → (framebuffer, viewport)
+    def end_frame(self, frame: Frame, rendered: bool) -> None: ...
+    def interaction_profiles(self) -> dict[str, str | None]: ...
+    def request_exit(self) -> None: ...
+
+
+@dataclass
+class ViewerOptions:
+    preset: Preset
+    preset_label: str
+    hours: float = 10.0
+    day_speed: float = 0.0
+    mode: str = "full"
+    frames: int | None = None
+    texture_size: int = 1024
+    screenshot: Path | None = None
+
+
+class FrameLoop:
+    def __init__(self, backend, windows, link, options: ViewerOptions) -> None:
+        self.backend = backend
+        self.link = link
+        self.options = options
+        self.ctx = windows.ctx
+        self.stats = FrameStats()
+        self.presets = _preset_list(options.preset, options.preset_label)
+        self.controls = ViewerControls(
+            hours=options.hours % 24.0,
+            day_speed=options.day_speed,
+            playing=options.day_speed > 0,
+            preset_index=0,
+            preset_count=len(self.presets),
+            mode=options.mode,
+        )
+        self.renderer = SandRenderer(self.ctx)
+        self.workbench = Workbench(lambda x, z: float(self.renderer.terrain.height(x, z)))
+        for mesh, origin in self.workbench.sand_objects():
+            self.renderer.add_object(mesh, origin)
+        self.worker = GrainWorker(windows.glfw, windows.worker, options.texture_size)
+        self.material = None
+        self.shown_preset: Preset | None = None
+        self.pending: tuple[int | None, float] | None = None  # (seq, received) of a request
+        self.world_offset: np.ndarray | None = None
+        self.previous_input = InputState()
+        self.previous_time: float | None = None
+        self.time_dirty_since: float | None = None
+        self.last_time_message = 0.0
+        self.ready_sent = False
+        self.pending_applied: tuple[int | None, float] | None = None
+        self.resources: dict[str, dict] = {}
+        self._builds_before_loop = 0
+        self._waiting_since: float | None = None
+        self._waiting_noticed = False
+        self.stop_requested = False  # set from a signal handler: end the session cleanly
+
+    # ---- start and end -------------------------------------------------------------------
+
+    def start(self) -> None:
+        """The first material, made before the first frame (a frame needs grains)."""
+        self.worker.request(self.presets[0][1])
+        ready = self.worker.wait(timeout_s=120)
+        if ready is None or ready.material is None:
+            reason = "timed out" if ready is None else ready.error
+            raise RuntimeError(f"could not make the grain textures: {reason}")
+        self._show(ready.material, ready.preset)
+        self._warm_up()
+        self._builds_before_loop = self.renderer.terrain_meshes_built
+
+    def _warm_up(self) -> None:
+        """Draw once off screen: compiling programs and the rasterizer's first draws take
+        seconds on a CPU, and a headset must not wait that long for a frame."""
+        texture = self.ctx.texture((64, 48), 4)
+        target = self.ctx.framebuffer([texture])
+        try:
+            pose = Pose((0.0, STANDING_EYE_HEIGHT_M, 0.0))
+            camera = eye_camera(pose, Fov.symmetric(1.4, 4 / 3), NEAR_M, FAR_M)
+            scene = self.renderer.prepare_frame(camera, show_sphere=False)
+            self.renderer.render(target, camera, sky_at(self.controls.hours), scene=scene)
+            target.use()
+            self.workbench.draw(self.ctx, camera, (0, 0, 64, 48), self.controls, "", [pose])
+            self.ctx.finish()
+        finally:
+            # Nothing may stay bound to a released framebuffer (the next draw restores it).
+            self.ctx.screen.use()
+            target.release()
+            texture.release()
+
+    def close(self) -> None:
+        self.worker.close()
+        self.workbench.release()
+        self.renderer.release()
+
+    # ---- the loop ----------------------------------------------------------------------------
+
+    def run(self) -> None:
+        backend = self.backend
+        stats = self.stats
+        while not backend.exiting:
+            if self.stop_requested:
+                backend.request_exit()
+            for state in backend.poll_events():
+                stats.states.append(state)
+                self.link.send(type="state", state=state)
+            self._handle_link()
+            regenerating = self.pending is not None or self.worker.busy
+            wait_start = time.perf_counter()
+            frame = backend.wait_frame()
+            if frame is None:
+                self._waiting_for_session()
+                time.sleep(0.005)
+                continue
+            loop_start = time.perf_counter()
+            stats.wait_ms.append((loop_start - wait_start) * 1e3 - frame.input_ms)
+            eye_ms = self._frame(frame)
+            submit_start = time.perf_counter()
+            own_ms = (submit_start - loop_start) * 1e3 - sum(eye_ms or ()) + frame.input_ms
+            stats.overhead_ms.append(own_ms)
+            backend.end_frame(frame, rendered=eye_ms is not None)
+            now = time.perf_counter()
+            stats.submit_ms.append((now - submit_start) * 1e3)
+            self._after_submit(now, frame, regenerating)
+            if stats.frames_submitted == WARM_UP_FRAMES:
+                self.resources["after_warm_up"] = self._resources()
+                # Counting GL objects is the report's own work: not a gap between frames.
+                stats.last_submit = time.perf_counter()
+            if self.options.frames is not None and stats.frames_submitted >= self.options.frames:
+                backend.request_exit()
+
+    def _waiting_for_session(self) -> None:
+        """Before the runtime runs the session (a headset off or not worn keeps it IDLE): say
+        so after a while, and give up after longer when a number of frames was asked for."""
+        if self.stats.frames_submitted:
+            return
+        now = time.perf_counter()
+        if self._waiting_since is None:
+            self._waiting_since = now
+        waited = now - self._waiting_since
+        state = self.stats.states[-1] if self.stats.states else "none yet"
+        if waited > SESSION_NOTICE_S and not self._waiting_noticed:
+            self._waiting_noticed = True
+            print(
+                f"sand-editor vr: waiting for the OpenXR runtime to start the session "
+                f"(state {state}): is the headset on and worn?",
+                file=sys.stderr,
+            )
+        if self.options.frames is not None and waited > SESSION_TIMEOUT_S:
+            raise NoHeadsetError(
+                f"the OpenXR runtime did not start the session within {SESSION_TIMEOUT_S:.0f} s "
+                f"(state {state}): switch the headset on and put it on, or use --desktop"
+            )
+
+    def _frame(self, frame: Frame) -> list[float] | None:
+        dt = 0.0
+        if self.previous_time is not None:
+            dt = min(max(frame.display_time_s - self.previous_time, 0.0), MAX_FRAME_STEP_S)
+        self.previous_time = frame.display_time_s
+        self._take_new_material()
+        self._apply_input(frame.input, dt)
+        self.controls = self.controls.advanced(dt)
+        if not frame.should_render or not frame.eyes:
+            return None
+        if self.world_offset is None:
+            self.world_offset = self._world_offset(frame)
+        eyes = [replace(e, pose=e.pose.translated(self.world_offset)) for e in frame.eyes]
+        cameras = [eye_camera(e.pose, e.fov, NEAR_M, FAR_M) for e in eyes]
+        head = eye_camera(_between(eyes), eyes[0].fov, NEAR_M, FAR_M)
+        self._count_levels_of_detail(head, cameras)
+        scene = self.renderer.prepare_frame(head, show_sphere=False)
+        sky = sky_at(self.controls.hours)
+        rays = [self._world_pose(hand.aim) for _, hand in frame.input.hands()]
+        screenshot = self._wants_screenshot()
+        images = []
+        eye_ms = []
+        for index, camera in enumerate(cameras):
+            start = time.perf_counter()
+            with self.backend.eye_target(index) as (target, viewport):
+                self.renderer.render(
+                    target, camera, sky, self.controls.mode, viewport=viewport, scene=scene
+                )
+                target.use()
+                self.workbench.draw(
+                    self.ctx, camera, viewport, self.controls, self.presets[self._index()][0], rays
+                )
+                finish_without_gil()
+                if screenshot:
+                    images.append(read_pixels(target, viewport))
+            eye_ms.append((time.perf_counter() - start) * 1e3)
+        if len(cameras) == 2 and np.allclose(cameras[0].view, cameras[1].view):
+            self.stats.views_differ = False
+        self.stats.eye_ms.extend(eye_ms)
+        self.stats.frames_rendered += 1
+        if screenshot:
+            save_side_by_side(images, self.options.screenshot)
+        return eye_ms
+
+    def _count_levels_of_detail(self, head, cameras) -> None:
+        """How often the head's terrain level of detail changed, and how often the eyes would
+        have disagreed on it had each chosen its own (the cost the shared scene avoids)."""
+        stats = self.stats
+        key = self.renderer.terrain_level_of_detail(head.eye)
+        if key != stats.head_lod:
+            stats.head_lod_changes += 1
+            stats.head_lod = key
+        eye_keys = {self.renderer.terrain_level_of_detail(c.eye) for c in cameras}
+        stats.eye_lod_disagreements += len(eye_keys) > 1
+
+    def _after_submit(self, now: float, frame: Frame, regenerating: bool) -> None:
+        stats = self.stats
+        stats.frames_submitted += 1
+        if stats.last_submit is not None:
+            gap = (now - stats.last_submit) * 1e3
+            stats.gaps_ms.append(gap)
+            if gap >= max(stats.gaps_ms):
+                stats.max_gap_frame = stats.frames_submitted
+            if regenerating or self.pending is not None or self.worker.busy:
+                stats.regenerating_gaps_ms.append(gap)
+        stats.last_submit = now
+        if not self.ready_sent:
+            self.ready_sent = True
+            backend = self.backend
+            self.link.send(
+                type="ready",
+                backend=backend.name,
+                runtime=backend.runtime,
+                system=backend.system,
+                views=[{"width": v["width"], "height": v["height"]} for v in backend.views],
+            )
+            self._send_time()
+        if self.pending_applied is not None and frame.should_render:
+            seq, received = self.pending_applied
+            self.link.send(type="applied", seq=seq, ms=round((now - received) * 1e3, 1))
+            self.pending_applied = None
+        if self.time_dirty_since is not None and now - self.last_time_message >= (
+            TIME_MESSAGE_INTERVAL_S
+        ):
+            self._send_time()
+
+    # ---- input ---------------------------------------------------------------------------------
+
+    def _apply_input(self, state: InputState, dt: float) -> None:
+        before = self.controls
+        for hand, hand_input in state.hands():
+            self.workbench.aim(hand, self._world_pose(hand_input.aim))
+        for command in commands_from_input(self.previous_input, state, dt):
+            if command.kind == "press":
+                command = self.workbench.press(command.hand)
+                if command is None:
+                    continue
+            self.controls = apply_command(self.controls, command)
+        self.previous_input = state
+        after = self.controls
+        if (after.hours, after.day_speed, after.playing) != (
+            before.hours,
+            before.day_speed,
+            before.playing,
+        ):
+            self.time_dirty_since = self.time_dirty_since or time.perf_counter()
+        if after.mode != before.mode:
+            self.link.send(type="mode", mode=after.mode)
+        if after.preset_index != before.preset_index:
+            self.worker.request(self.presets[self._index()][1])
+
+    def _send_time(self) -> None:
+        c = self.controls
+        self.link.send(
+            type="time", hours=round(c.hours, 4), day_speed=c.day_speed, playing=c.playing
+        )
+        self.last_time_message = time.perf_counter()
+        self.time_dirty_since = None
+
+    # ---- the link -------------------------------------------------------------------------
+
+    def _handle_link(self) -> None:
+        for message in self.link.poll():
+            try:
+                self._handle_message(message)
+            except (LinkError, PresetError, ValueError) as exc:
+                self._error(f"{message.get('type')}: {exc}")
+        if self.link.closed:
+            self.backend.request_exit()
+
+    def _handle_message(self, message: dict) -> None:
+        kind = message["type"]
+        if kind == "preset":
+            seq = message.get("seq")
+            preset = Preset.from_dict(message.get("preset"), source="the editor's preset")
+            label = f"{preset.name} (editing)"
+            if self.presets[0][0].endswith("(editing)"):
+                self.presets[0] = (label, preset)
+            else:
+                self.presets.insert(0, (label, preset))
+            self.controls = replace(self.controls, preset_index=0, preset_count=len(self.presets))
+            self.worker.request(preset, seq)
+            self.pending = (seq, time.perf_counter())
+        elif kind == "time":
+            fields = check_time_fields(message)
+            self.controls = replace(self.controls, **fields)
+        elif kind == "mode":
+            mode = message.get("mode")
+            if mode not in MODES:
+                raise LinkError(f"unknown mode {mode!r}; allowed: {', '.join(MODES)}")
+            self.controls = replace(self.controls, mode=mode)
+        elif kind == "quit":
+            self.backend.request_exit()
+        elif kind == "_invalid":
+            raise LinkError(message["message"])
+        else:
+            raise LinkError(f"unknown message type {kind!r}")
+
+    def _error(self, text: str) -> None:
+        self.stats.errors.append(text)
+        self.link.send(type="error", message=text)
+
+    # ---- grains -------------------------------------------------------------------------------
+
+    def _take_new_material(self) -> None:
+        ready = self.worker.poll()
+        if ready is None:
+            return
+        if self.pending is not None and self.pending[0] == ready.seq:
+            self.pending = None
+        if ready.material is None:
+            self._error(f"preset {ready.preset.name!r}: {ready.error}; the old sand stays")
+            return
+        self._show(ready.material, ready.preset)
+        if ready.seq is not None:
+            self.pending_applied = (ready.seq, ready.received_s)
+
+    def _show(self, material, preset: Preset) -> None:
+        old = self.material
+        self.material = material
+        self.shown_preset = preset
+        self.renderer.set_material(material)
+        if old is not None:
+            self.worker.give_back(old)
+
+    # ---- helpers ------------------------------------------------------------------------------
+
+    def _index(self) -> int:
+        return self.controls.preset_index % len(self.presets)
+
+    def _world_offset(self, frame: Frame) -> np.ndarray:
+        """Tracking space → world: the standing point on the dune; a space whose origin is
+        the head (LOCAL) is lifted to a standing eye height."""
+        ground = float(self.renderer.terrain.height(0.0, 0.0))
+        lift = 0.0
+        if not self.backend.floor_level:
+            head_y = float(_between(frame.eyes).position[1])
+            lift = max(STANDING_EYE_HEIGHT_M - head_y, 0.0)
+        return np.array([0.0, ground + lift, 0.0])
+
+    def _world_pose(self, pose: Pose | None) -> Pose | None:
+        if pose is None or self.world_offset is None:
+            return None
+        return pose.translated(self.world_offset)
+
+    def _wants_screenshot(self) -> bool:
+        if self.options.screenshot is None:
+            return False
+        last = self.options.frames or 1
+        return self.stats.frames_submitted + 1 == last
+
+    # ---- report -------------------------------------------------------------------------------
+
+    def _resources(self) -> dict:
+        return {
+            "frame": self.stats.frames_submitted,
+            "gl_objects": gl_object_counts(self.ctx),
+            "resident_mb": round(resident_mb(), 1),
+        }
+
+    def report(self) -> dict:
+        backend = self.backend
+        stats = self.stats
+        suggested = getattr(backend, "suggested_profiles", {})
+        rejected = [
+            f"bindings for {profile} rejected: {outcome}"
+            for profile, outcome in suggested.items()
+            if outcome != "accepted"
+        ]
+        if "after_warm_up" in self.resources and "end" not in self.resources:
+            self.resources["end"] = self._resources()
+        return {
+            "backend": backend.name,
+            "runtime": backend.runtime,
+            "system": backend.system,
+            "views": backend.views,
+            "swapchain_format": backend.swapchain_format,
+            "reference_space": backend.reference_space,
+            "interaction_profiles": backend.interaction_profiles(),
+            "suggested_bindings": suggested,
+            "frames_submitted": stats.frames_submitted,
+            "frames_rendered": stats.frames_rendered,
+            "eye_ms": summary(stats.eye_ms),
+            "frame_overhead_ms": summary(stats.overhead_ms),
+            "wait_ms": summary(stats.wait_ms),
+            "submit_ms": summary(stats.submit_ms),
+            "frame_gap_ms": summary(stats.gaps_ms),
+            "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
+            "max_frame_gap_at_frame": stats.max_gap_frame,
+            "max_frame_gap_while_regenerating_ms": round(
+                max(stats.regenerating_gaps_ms, default=0.0), 2
+            ),
+            "view_matrices_differ": stats.views_differ and stats.frames_rendered > 0,
+            "terrain_meshes_built": self.renderer.terrain_meshes_built - self._builds_before_loop,
+            "head_level_of_detail_changes": stats.head_lod_changes,
+            "frames_where_eyes_disagree_on_level_of_detail": stats.eye_lod_disagreements,
+            "final": {
+                "hours": round(self.controls.hours, 4),
+                "day_speed": self.controls.day_speed,
+                "playing": self.controls.playing,
+                "mode": self.controls.mode,
+                "preset": self.presets[self._index()][0],
+            },
+            "resources": self.resources,
+            "states": stats.states,
+            "errors": [*stats.errors, *rejected],
+        }
+
+
+def _between(eyes: list[EyeView]) -> Pose:
+    """The head: midway between the eyes, facing as the first eye does."""
+    position = np.mean([e.pose.position for e in eyes], axis=0)
+    return Pose(tuple(float(v) for v in position), eyes[0].pose.orientation)
+
+
+def _preset_list(preset: Preset, label: str) -> list[tuple[str, Preset]]:
+    """The preset shown first, then every shipped one (each once)."""
+    entries = [(label, preset)]
+    for path in sorted(presets_dir().glob("*.json")):
+        if path.stem == label:
+            continue
+        try:
+            entries.append((path.stem, Preset.load(path)))
+        except PresetError:
+            continue
+    return entries

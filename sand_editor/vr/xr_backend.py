@@ -1,0 +1,462 @@
+"""The headset: one OpenXR session through pyopenxr with OpenGL (``XR_KHR_opengl_enable``,
+a GLX context from a hidden GLFW window), its swapchains, actions and session life cycle.
+
+pyopenxr raises qualified successes as exceptions: ``EventUnavailable`` ends an event poll,
+``SessionNotFocused`` from ``sync_actions`` means no input this frame, ``FrameDiscarded`` means
+the runtime dropped a frame (the loop goes on), ``SessionLossPending`` means the session ends.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import time
+from contextlib import contextmanager
+
+import xr
+
+from sand_editor.vr.actions import ACTIONS, BINDINGS, HANDS, HandInput, InputState, binding_paths
+from sand_editor.vr.errors import RUNTIME_HELP, GraphicsError, NoHeadsetError, NoRuntimeError
+from sand_editor.vr.loop import EyeView, Frame
+from sand_editor.vr.xrmath import Fov, Pose
+
+GL_SRGB8_ALPHA8 = 0x8C43
+GL_RGBA8 = 0x8058
+# The resolve pass writes sRGB-encoded values: an sRGB swapchain stores them as written.
+FORMAT_NAMES = {GL_SRGB8_ALPHA8: "GL_SRGB8_ALPHA8", GL_RGBA8: "GL_RGBA8"}
+STEREO = xr.ViewConfigurationType.PRIMARY_STEREO
+_ACTION_TYPES = {
+    "boolean": xr.ActionType.BOOLEAN_INPUT,
+    "float": xr.ActionType.FLOAT_INPUT,
+    "vector2f": xr.ActionType.VECTOR2F_INPUT,
+    "pose": xr.ActionType.POSE_INPUT,
+}
+_RUNTIME_ERRORS = (xr.RuntimeUnavailableError, xr.RuntimeFailureError)
+_HEADSET_ERRORS = (xr.FormFactorUnavailableError, xr.FormFactorUnsupportedError)
+
+
+def _text(value) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def create_instance() -> xr.Instance:
+    """An instance with OpenGL; ``NoRuntimeError`` when no runtime is installed or active."""
+    try:
+        available = xr.enumerate_instance_extension_properties()
+        if xr.KHR_OPENGL_ENABLE_EXTENSION_NAME not in available:
+            raise GraphicsError(
+                "the active OpenXR runtime does not offer OpenGL (XR_KHR_opengl_enable)"
+            )
+        return xr.create_instance(
+            xr.InstanceCreateInfo(
+                application_info=xr.ApplicationInfo(
+                    application_name="Sand Editor",
+                    engine_name="sand-editor",
+                    api_version=xr.Version(1, 0, xr.XR_VERSION_PATCH),
+                ),
+                enabled_extension_names=[xr.KHR_OPENGL_ENABLE_EXTENSION_NAME],
+            )
+        )
+    except _RUNTIME_ERRORS as exc:
+        reason = f"no OpenXR runtime found ({type(exc).__name__})"
+        raise NoRuntimeError(f"{reason}. {RUNTIME_HELP}") from None
+    except xr.XrException as exc:
+        reason = f"the OpenXR runtime failed to start ({exc})"
+        raise NoRuntimeError(f"{reason}. {RUNTIME_HELP}") from None
+
+
+def create_actions(instance, hand_paths) -> tuple:
+    """The viewer's action set and its actions (``ACTIONS``), each per hand."""
+    action_set = xr.create_action_set(
+        instance,
+        xr.ActionSetCreateInfo(
+            action_set_name="sand_viewer", localized_action_set_name="Sand viewer", priority=0
+        ),
+    )
+    actions = {
+        name: xr.create_action(
+            action_set,
+            xr.ActionCreateInfo(
+                action_name=name,
+                action_type=_ACTION_TYPES[kind],
+                subaction_paths=hand_paths,
+                localized_action_name=label,
+            ),
+        )
+        for name, (kind, label) in ACTIONS.items()
+    }
+    return action_set, actions
+
+
+def suggest_bindings(instance, actions: dict, profile: str, pairs) -> None:
+    """Suggest (action, input path) pairs for an interaction profile; the runtime raises if
+    it rejects any of them (and then the whole profile)."""
+    xr.suggest_interaction_profile_bindings(
+        instance,
+        xr.InteractionProfileSuggestedBinding(
+            interaction_profile=xr.string_to_path(instance, profile),
+            suggested_bindings=[
+                xr.ActionSuggestedBinding(actions[action], xr.string_to_path(instance, path))
+                for action, path in pairs
+            ],
+        ),
+    )
+
+
+class XrBackend:
+    name = "xr"
+
+    def __init__(self, windows_factory, render_scale: float) -> None:
+        """``windows_factory()`` makes the GL windows (after the instance and system, so a
+        missing runtime or headset is reported before any window opens)."""
+        self._cleanup: list = []
+        self.exiting = False
+        self.instance = create_instance()
+        self._cleanup.append(lambda: xr.destroy_instance(self.instance))
+        try:
+            self._start(windows_factory, render_scale)
+        except BaseException:
+            self.close()
+            raise
+
+    def _start(self, windows_factory, render_scale: float) -> None:
+        instance = self.instance
+        self.runtime = _text(xr.get_instance_properties(instance).runtime_name)
+        try:
+            self.system_id = xr.get_system(
+                instance, xr.SystemGetInfo(form_factor=xr.FormFactor.HEAD_MOUNTED_DISPLAY)
+            )
+        except _HEADSET_ERRORS as exc:
+            raise NoHeadsetError(
+                f"the OpenXR runtime {self.runtime!r} has no headset ({type(exc).__name__}): "
+                "connect and switch on the headset, or use sand-editor vr --desktop"
+            ) from None
+        self.system = _text(xr.get_system_properties(instance, self.system_id).system_name)
+        requirements = gl_requirements(instance, self.system_id)
+        self.windows = windows_factory()
+        self._cleanup.append(self.windows.close)
+        self.ctx = self.windows.ctx
+        from xr.utils.gl import GLXGraphicsBinding
+
+        binding = GLXGraphicsBinding(self.windows)
+        try:
+            self.session = xr.create_session(
+                instance, xr.SessionCreateInfo(next=binding.pointer, system_id=self.system_id)
+            )
+        except xr.XrException as exc:
+            minimum = requirements.min_api_version_supported
+            raise GraphicsError(
+                f"the OpenXR runtime refused an OpenGL session ({exc}); it needs OpenGL "
+                f"{minimum.major}.{minimum.minor} or newer, this context is "
+                f"{self.ctx.info['GL_VERSION']}"
+            ) from None
+        self._cleanup.append(lambda: xr.destroy_session(self.session))
+        spaces = list(xr.enumerate_reference_spaces(self.session))
+        self.floor_level = xr.ReferenceSpaceType.STAGE in spaces
+        space_type = (
+            xr.ReferenceSpaceType.STAGE if self.floor_level else (xr.ReferenceSpaceType.LOCAL)
+        )
+        self.reference_space = space_type.name
+        self.space = xr.create_reference_space(
+            self.session, xr.ReferenceSpaceCreateInfo(reference_space_type=space_type)
+        )
+        self._cleanup.append(lambda: xr.destroy_space(self.space))
+        self._create_swapchains(render_scale)
+        self._create_actions()
+        self._running = False
+        self.lost = False
+        self._state = "IDLE"
+        self._focused = False
+        self._exit_requested = False
+        self._frame_state = None
+        self._views = None
+        self._projection_views = []
+
+    # ---- set-up ----------------------------------------------------------------------------
+
+    def _create_swapchains(self, render_scale: float) -> None:
+        formats = list(xr.enumerate_swapchain_formats(self.session))
+        chosen = next((f for f in (GL_SRGB8_ALPHA8, GL_RGBA8) if f in formats), None)
+        if chosen is None:
+            raise GraphicsError(
+                f"the runtime offers no 8-bit colour swapchain: {[hex(f) for f in formats]}"
+            )
+        self.swapchain_format = FORMAT_NAMES[chosen]
+        self.views = []
+        self._eyes = []
+        configuration = xr.enumerate_view_configuration_views(self.instance, self.system_id, STEREO)
+        for view in configuration:
+            width = max(16, round(view.recommended_image_rect_width * render_scale))
+            height = max(16, round(view.recommended_image_rect_height * render_scale))
+            width = min(width, view.max_image_rect_width)
+            height = min(height, view.max_image_rect_height)
+            swapchain = xr.create_swapchain(
+                self.session,
+                xr.SwapchainCreateInfo(
+                    usage_flags=xr.SwapchainUsageFlags.COLOR_ATTACHMENT_BIT
+                    | xr.SwapchainUsageFlags.SAMPLED_BIT,
+                    format=chosen,
+                    sample_count=1,
+                    width=width,
+                    height=height,
+                    face_count=1,
+                    array_size=1,
+                    mip_count=1,
+                ),
+            )
+            self._cleanup.append(lambda sc=swapchain: xr.destroy_swapchain(sc))
+            images = xr.enumerate_swapchain_images(swapchain, xr.SwapchainImageOpenGLKHR)
+            framebuffers = []
+            for image in images:
+                # The runtime owns the texture: releasing our wrapper does not delete it.
+                texture = self.ctx.external_texture(image.image, (width, height), 4, 0, "f1")
+                framebuffers.append(self.ctx.framebuffer(color_attachments=[texture]))
+            self._cleanup.append(lambda fbs=framebuffers: [fb.release() for fb in fbs])
+            self._eyes.append((swapchain, (width, height), framebuffers))
+            self.views.append({"width": width, "height": height, "fov": None})
+
+    def _create_actions(self) -> None:
+        instance = self.instance
+        self._hand_paths = {
+            hand: xr.string_to_path(instance, f"/user/hand/{hand}") for hand in HANDS
+        }
+        self.action_set, self.actions = create_actions(instance, list(self._hand_paths.values()))
+        self._cleanup.append(lambda: xr.destroy_action_set(self.action_set))
+        self.suggested_profiles = {}
+        for profile in BINDINGS:
+            try:
+                suggest_bindings(instance, self.actions, profile, binding_paths(profile))
+                self.suggested_profiles[profile] = "accepted"
+            except xr.XrException as exc:
+                # One unknown path rejects the whole profile; the others still work.
+                self.suggested_profiles[profile] = f"{type(exc).__name__}: {exc}"
+        xr.attach_session_action_sets(
+            self.session, xr.SessionActionSetsAttachInfo(action_sets=[self.action_set])
+        )
+        self._aim_spaces = {}
+        for hand, path in self._hand_paths.items():
+            space = xr.create_action_space(
+                self.session,
+                xr.ActionSpaceCreateInfo(action=self.actions["aim"], subaction_path=path),
+            )
+            self._aim_spaces[hand] = space
+            self._cleanup.append(lambda s=space: xr.destroy_space(s))
+
+    # ---- session life cycle --------------------------------------------------------------------
+
+    def poll_events(self) -> list[str]:
+        entered = []
+        while True:
+            try:
+                event = xr.poll_event(self.instance)
+            except xr.EventUnavailable:
+                return entered
+            kind = xr.StructureType(event.type)
+            if kind == xr.StructureType.EVENT_DATA_INSTANCE_LOSS_PENDING:
+                self._lose()
+                entered.append("INSTANCE_LOSS_PENDING")
+                continue
+            if kind != xr.StructureType.EVENT_DATA_SESSION_STATE_CHANGED:
+                continue
+            changed = ctypes.cast(
+                ctypes.byref(event), ctypes.POINTER(xr.EventDataSessionStateChanged)
+            ).contents
+            state = xr.SessionState(changed.state)
+            self._state = state.name
+            entered.append(state.name)
+            if state == xr.SessionState.READY:
+                xr.begin_session(self.session, xr.SessionBeginInfo(STEREO))
+                self._running = True
+                if self._exit_requested:
+                    xr.request_exit_session(self.session)
+            elif state == xr.SessionState.STOPPING:
+                xr.end_session(self.session)
+                self._running = False
+            elif state == xr.SessionState.LOSS_PENDING:
+                self._lose()
+            elif state == xr.SessionState.EXITING:
+                self._running = False
+                self.exiting = True
+            self._focused = state == xr.SessionState.FOCUSED
+
+    def _lose(self) -> None:
+        """The runtime is taking the session away (headset unplugged, runtime stopping)."""
+        self.lost = True
+        self._running = False
+        self.exiting = True
+
+    def request_exit(self) -> None:
+        if self._exit_requested:
+            return
+        self._exit_requested = True
+        if self._running:
+            xr.request_exit_session(self.session)
+        elif self._state in ("IDLE", "UNKNOWN"):
+            # Never started: nothing to stop.
+            self.exiting = True
+
+    def interaction_profiles(self) -> dict[str, str | None]:
+        bound = {}
+        for hand, path in self._hand_paths.items():
+            try:
+                state = xr.get_current_interaction_profile(self.session, path)
+                profile = state.interaction_profile
+                bound[hand] = xr.path_to_string(self.instance, profile) if profile else None
+            except xr.XrException:
+                bound[hand] = None
+        return bound
+
+    # ---- frames --------------------------------------------------------------------------------
+
+    def wait_frame(self) -> Frame | None:
+        if not self._running:
+            return None
+        try:
+            frame_state = xr.wait_frame(self.session)
+        except xr.SessionLossPending:
+            self._lose()
+            return None
+        try:
+            xr.begin_frame(self.session)
+        except xr.FrameDiscarded:
+            pass  # the previous frame was dropped; this one has begun all the same
+        self._frame_state = frame_state
+        display_time = frame_state.predicted_display_time
+        eyes = []
+        if frame_state.should_render:
+            _, views = xr.locate_views(
+                self.session,
+                xr.ViewLocateInfo(
+                    view_configuration_type=STEREO, display_time=display_time, space=self.space
+                ),
+            )
+            self._views = views
+            for index, view in enumerate(views):
+                fov = Fov(
+                    view.fov.angle_left,
+                    view.fov.angle_right,
+                    view.fov.angle_up,
+                    view.fov.angle_down,
+                )
+                self.views[index]["fov"] = fov.as_dict()
+                eyes.append(EyeView(_pose(view.pose), fov))
+        self._projection_views = []
+        start = time.perf_counter()
+        controls = self._input(display_time)
+        input_ms = (time.perf_counter() - start) * 1e3
+        return Frame(display_time * 1e-9, bool(frame_state.should_render), eyes, controls, input_ms)
+
+    def _input(self, display_time) -> InputState:
+        if not self._focused:
+            return InputState()
+        try:
+            xr.sync_actions(
+                self.session,
+                xr.ActionsSyncInfo(active_action_sets=[xr.ActiveActionSet(self.action_set, 0)]),
+            )
+        except xr.SessionNotFocused:
+            return InputState()
+        hands = {}
+        for hand, path in self._hand_paths.items():
+            hands[hand] = HandInput(
+                stick=self._vector(self.actions["scrub"], path),
+                select=self._float(self.actions["select"], path),
+                play_pause=self._boolean(self.actions["play_pause"], path),
+                next_preset=self._boolean(self.actions["next_preset"], path),
+                toggle_lambert=self._boolean(self.actions["toggle_lambert"], path),
+                aim=self._aim(hand, display_time),
+            )
+        return InputState(**hands)
+
+    def _info(self, action, path):
+        return xr.ActionStateGetInfo(action=action, subaction_path=path)
+
+    def _vector(self, action, path) -> tuple[float, float]:
+        state = xr.get_action_state_vector2f(self.session, self._info(action, path))
+        return (state.current_state.x, state.current_state.y) if state.is_active else (0.0, 0.0)
+
+    def _float(self, action, path) -> float:
+        state = xr.get_action_state_float(self.session, self._info(action, path))
+        return float(state.current_state) if state.is_active else 0.0
+
+    def _boolean(self, action, path) -> bool:
+        state = xr.get_action_state_boolean(self.session, self._info(action, path))
+        return bool(state.current_state) if state.is_active else False
+
+    def _aim(self, hand: str, display_time) -> Pose | None:
+        location = xr.locate_space(self._aim_spaces[hand], self.space, display_time)
+        flags = location.location_flags
+        wanted = (
+            xr.SpaceLocationFlags.POSITION_VALID_BIT | xr.SpaceLocationFlags.ORIENTATION_VALID_BIT
+        )
+        if (flags & wanted) != wanted:
+            return None
+        return _pose(location.pose)
+
+    @contextmanager
+    def eye_target(self, index: int):
+        swapchain, size, framebuffers = self._eyes[index]
+        image = xr.acquire_swapchain_image(swapchain, xr.SwapchainImageAcquireInfo())
+        xr.wait_swapchain_image(swapchain, xr.SwapchainImageWaitInfo(timeout=xr.INFINITE_DURATION))
+        try:
+            yield framebuffers[image], (0, 0, *size)
+        finally:
+            xr.release_swapchain_image(swapchain, xr.SwapchainImageReleaseInfo())
+        view = self._views[index]
+        self._projection_views.append(
+            xr.CompositionLayerProjectionView(
+                pose=view.pose,
+                fov=view.fov,
+                sub_image=xr.SwapchainSubImage(
+                    swapchain=swapchain, image_rect=xr.Rect2Di(extent=xr.Extent2Di(*size))
+                ),
+            )
+        )
+
+    def end_frame(self, frame: Frame, rendered: bool) -> None:
+        layers = []
+        if rendered and len(self._projection_views) == len(self._eyes):
+            # Kept alive until end_frame returns: the runtime reads it there.
+            layer = xr.CompositionLayerProjection(space=self.space, views=self._projection_views)
+            layers.append(ctypes.byref(layer))
+        try:
+            xr.end_frame(
+                self.session,
+                xr.FrameEndInfo(
+                    display_time=self._frame_state.predicted_display_time,
+                    environment_blend_mode=xr.EnvironmentBlendMode.OPAQUE,
+                    layers=layers,
+                ),
+            )
+        except xr.FrameDiscarded:
+            pass
+        self._projection_views = []
+
+    # ---- end -------------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        while self._cleanup:
+            step = self._cleanup.pop()
+            try:
+                step()
+            except Exception:  # noqa: BLE001 - tearing down: the rest must still go
+                pass
+
+
+def gl_requirements(instance, system_id):
+    """``xrGetOpenGLGraphicsRequirementsKHR``, which the spec requires before
+    ``xrCreateSession`` with OpenGL (called directly: pyopenxr's wrapper module refers to
+    Windows-only types at import)."""
+    function = ctypes.cast(
+        xr.get_instance_proc_addr(instance, "xrGetOpenGLGraphicsRequirementsKHR"),
+        xr.PFN_xrGetOpenGLGraphicsRequirementsKHR,
+    )
+    requirements = xr.GraphicsRequirementsOpenGLKHR()
+    result = xr.check_result(xr.Result(function(instance, system_id, ctypes.byref(requirements))))
+    if result.is_exception():
+        raise result
+    return requirements
+
+
+def _pose(pose) -> Pose:
+    p, q = pose.position, pose.orientation
+    return Pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))

@@ -1,0 +1,101 @@
+"""Runs the real frame loop with the desktop backend, its keyboard and mouse replaced by a
+script of controller input, and prints what the editor would have received as JSON.
+
+Used by test_frame_loop.py in a process of its own (a GLX context must not share a thread
+with the suite's EGL one)."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+
+from sand_editor.preset import Preset
+from sand_editor.resources import bundled_preset
+from sand_editor.vr.actions import HandInput, InputState
+from sand_editor.vr.desktop import DesktopBackend, eye_size
+from sand_editor.vr.glwindow import GLWindows
+from sand_editor.vr.loop import FrameLoop, ViewerOptions
+from sand_editor.vr.workbench import BUTTONS
+from sand_editor.vr.xrmath import Pose
+
+
+class RecordingLink:
+    closed = False
+
+    def __init__(self):
+        self.sent = []
+
+    def poll(self):
+        return []
+
+    def send(self, **message):
+        self.sent.append({**message, "at_s": time.perf_counter()})
+        return True
+
+
+class ScriptedBackend(DesktopBackend):
+    def __init__(self, windows, size, script):
+        super().__init__(windows, size)
+        self.script = script
+        self.frame_index = 0
+
+    def _input(self, head):
+        step = self.script(self.frame_index)
+        self.frame_index += 1
+        return step
+
+
+def main() -> None:
+    size = eye_size(0.1)
+    windows = GLWindows((2 * size[0], size[1]), "scripted", visible=True)
+    backend = None
+
+    def aim_at(name: str) -> Pose:
+        u0, v0, u1, v1, *_ = BUTTONS[name]
+        panel = loop.workbench.panel
+        point = (
+            panel.center
+            + ((u0 + u1) / 2 - 0.5) * panel.size[0] * panel.right
+            + ((v0 + v1) / 2 - 0.5) * panel.size[1] * panel.up
+        )
+        # The aim pose is in tracking space: the loop adds the world offset.
+        origin = point + 0.6 * panel.normal - loop.world_offset
+        direction = point - loop.world_offset - origin
+        yaw = math.atan2(-direction[0], -direction[2])
+        pitch = math.atan2(direction[1], math.hypot(direction[0], direction[2]))
+        return Pose.from_yaw_pitch(origin, yaw, pitch)
+
+    def script(frame: int) -> InputState:
+        if 5 <= frame < 25:  # stick right: the clock runs forwards
+            return InputState(right=HandInput(stick=(1.0, 0.0)))
+        if 30 <= frame < 34:  # aim at the Lambert button, then pull the trigger
+            return InputState(left=HandInput(aim=aim_at("lambert"), select=float(frame >= 32)))
+        if frame == 40:
+            return InputState(right=HandInput(next_preset=True))
+        return InputState()
+
+    link = RecordingLink()
+    options = ViewerOptions(
+        preset=Preset.load(bundled_preset("paper-default")),
+        preset_label="paper-default",
+        hours=12.0,
+        frames=int(sys.argv[1]),
+        texture_size=256,
+    )
+    backend = ScriptedBackend(windows, size, script)
+    loop = FrameLoop(backend, windows, link, options)
+    try:
+        loop.start()
+        loop.run()
+        report = loop.report()
+        shown = loop.shown_preset.name
+    finally:
+        loop.close()
+        windows.close()
+    print(json.dumps({"sent": link.sent, "report": report, "shown_preset": shown}))
+
+
+if __name__ == "__main__":
+    main()

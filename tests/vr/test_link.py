@@ -1,0 +1,113 @@
+"""The editor ↔ viewer link: message encoding and the stdio reader."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from sand_editor.vr import link
+from sand_editor.vr.link import LinkError, StdioLink, check_time_fields, decode, encode
+
+
+def test_encode_writes_one_json_line_and_decode_reads_it_back():
+    line = encode("time", hours=16.5, day_speed=0.0, playing=False)
+    assert line.endswith("\n") and line.count("\n") == 1
+    assert decode(line) == {"type": "time", "hours": 16.5, "day_speed": 0.0, "playing": False}
+    assert decode(encode("error", message="déjà vu").encode()) == {
+        "type": "error",
+        "message": "déjà vu",
+    }
+
+
+def test_encode_refuses_nan():
+    with pytest.raises(ValueError):
+        encode("time", hours=float("nan"))
+
+
+@pytest.mark.parametrize(
+    "line,reason",
+    [("{", "not JSON"), ("[1, 2]", "JSON object"), ('{"kind": "x"}', "'type'")],
+)
+def test_decode_names_what_is_wrong(line, reason):
+    with pytest.raises(LinkError, match=reason):
+        decode(line)
+
+
+def test_time_fields_are_checked():
+    assert check_time_fields({"type": "time", "hours": 3}) == {"hours": 3.0}
+    for bad, field in [
+        ({"hours": 24.0}, "hours"),
+        ({"hours": float("nan")}, "hours"),
+        ({"day_speed": -1}, "day_speed"),
+        ({"day_speed": True}, "day_speed"),
+        ({"playing": 1}, "playing"),
+    ]:
+        with pytest.raises(LinkError, match=field):
+            check_time_fields(bad)
+
+
+def test_exit_statuses_are_distinct():
+    statuses = [link.EXIT_OK, link.EXIT_BAD_INPUT, link.EXIT_NO_RUNTIME, link.EXIT_NO_HEADSET,
+                link.EXIT_GRAPHICS, link.EXIT_INTERRUPTED]  # fmt: skip
+    assert statuses == [0, 1, 3, 4, 5, 130]
+
+
+def _wait_for(predicate, timeout=5.0):
+    end = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.01)
+
+
+def test_reader_queues_messages_and_sees_eof():
+    read_fd, write_fd = os.pipe()
+    reader_end = os.fdopen(read_fd, "r", encoding="utf-8")
+    writer = os.fdopen(write_fd, "w", encoding="utf-8")
+    out = io.StringIO()
+    stdio = StdioLink(reader_end, out)
+    assert stdio.poll() == []
+    writer.write(encode("mode", mode="lambert") + "not json\n\n" + encode("quit"))
+    writer.flush()
+    received = []
+    _wait_for(lambda: received.extend(stdio.poll()) or len(received) >= 3)
+    assert received[0] == {"type": "mode", "mode": "lambert"}
+    assert received[1]["type"] == "_invalid" and "not JSON" in received[1]["message"]
+    assert received[2] == {"type": "quit"}
+    assert not stdio.closed
+    writer.close()
+    _wait_for(lambda: stdio.closed)
+
+
+def test_send_is_one_whole_line_per_message_from_many_threads():
+    out = io.StringIO()
+    stdio = StdioLink(io.StringIO(""), out)
+
+    def talk(n):
+        for i in range(200):
+            stdio.send(type="time", hours=float(i % 24), day_speed=float(n), playing=True)
+
+    threads = [threading.Thread(target=talk, args=(n,)) for n in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 800
+    assert all(json.loads(line)["type"] == "time" for line in lines)
+
+
+def test_link_module_imports_no_openxr_or_gl():
+    code = (
+        "import sys, sand_editor.vr.link; "
+        "bad = [m for m in ('xr', 'moderngl', 'glfw', 'PySide6') if m in sys.modules]; "
+        "print(bad); sys.exit(1 if bad else 0)"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr
