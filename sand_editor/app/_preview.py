@@ -150,6 +150,11 @@ class PreviewPanel(QWidget):
         if not is_3d:
             self._rebuild_image()
 
+    def release_gl(self) -> None:
+        """Release the 3D view's GL objects (before the window closes)."""
+        if self.view3d is not None:
+            self.view3d.view.cleanup()
+
     @property
     def textures(self) -> SandTextures | None:
         return self._textures

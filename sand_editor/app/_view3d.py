@@ -73,6 +73,10 @@ class GLResources:
         """Release everything, with ``context`` made current if given."""
         if self.ctx is None:
             return
+        if context is not None and not shiboken6.isValid(self.surface):
+            # Nothing left to make current: the objects go with the context itself.
+            self.ctx = self.material = self.renderer = self.surface = None
+            return
         if context is not None:
             release_standalone_context()
             context.makeCurrent(self.surface)
@@ -86,9 +90,9 @@ class GLResources:
             self.ctx = self.material = self.renderer = None
             if context is not None:
                 context.doneCurrent()
-            if self.surface is not None:
+            if self.surface is not None and shiboken6.isValid(self.surface):
                 self.surface.destroy()
-                self.surface = None
+            self.surface = None
 
 
 class SandView(QOpenGLWidget):
@@ -194,7 +198,9 @@ class SandView(QOpenGLWidget):
             self._fail(f"Cannot start the 3D view: {error}")
             return
         # Where the context must be made current while the widget is being destroyed.
-        gl.surface = QOffscreenSurface()
+        # Owned by the widget, so it outlives the context's destruction (the widget's children
+        # go last), whatever Python collects first at exit.
+        gl.surface = QOffscreenSurface(None, self)
         gl.surface.setFormat(self.context().format())
         gl.surface.create()
         # Not a slot of the widget, nor using the context's wrapper: this runs from their

@@ -152,6 +152,8 @@ class EditorWindow(QMainWindow):
 
     def closeEvent(self, event: QCloseEvent) -> None:
         if self.maybe_save():
+            # GL objects go while their context is still whole, not in Qt's teardown at exit.
+            self.preview.release_gl()
             event.accept()
         else:
             event.ignore()
