@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -26,7 +27,14 @@ from PySide6.QtWidgets import (
 )
 
 from sand_editor.app._model import PresetModel
-from sand_editor.gl import REQUIRED_GL_VERSION, release_standalone_context
+from sand_editor.generator import SandTextures
+from sand_editor.gl import (
+    REQUIRED_GL_VERSION,
+    draw_fullscreen,
+    drawing_into,
+    fullscreen_program,
+    release_standalone_context,
+)
 from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.material import SandMaterial
@@ -34,7 +42,13 @@ from sand_editor.render.modes import MODE_HELP, MODES
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.sky import advance, sky_at
 
-TEXTURE_SIZE = 512
+# Adaptive resolution: while the view moves, frames are drawn at a fraction of the widget's
+# pixels, chosen so a frame takes about FRAME_BUDGET_MS; SETTLE_MS after the last change, one
+# frame at full resolution.
+FRAME_BUDGET_MS = 25.0
+MIN_SCALE = 0.2
+MAX_MOVING_SCALE = 0.75
+SETTLE_MS = 300
 MIN_DISTANCE_M = 1e-3
 MAX_DISTANCE_M = 100.0
 DISTANCE_STEPS = 1000  # slider positions across the log range
@@ -66,6 +80,9 @@ class GLResources:
         self.material: SandMaterial | None = None
         self.renderer: SandRenderer | None = None
         self.surface: QOffscreenSurface | None = None
+        # The reduced-resolution frame and the pass that scales it up to the widget.
+        self.low_target: moderngl.Framebuffer | None = None
+        self.upscale: moderngl.Program | None = None
         # The GL error state when the objects went away; None until then.
         self.release_error: str | None = None
 
@@ -76,6 +93,7 @@ class GLResources:
         if context is not None and not shiboken6.isValid(self.surface):
             # Nothing left to make current: the objects go with the context itself.
             self.ctx = self.material = self.renderer = self.surface = None
+            self.low_target = self.upscale = None
             return
         if context is not None:
             release_standalone_context()
@@ -84,10 +102,13 @@ class GLResources:
             for owner in (self.renderer, self.material):
                 if owner is not None:
                     owner.release()
+            self.release_low_target()
+            if self.upscale is not None:
+                self.upscale.release()
             self.release_error = self.ctx.error
             self.ctx.release()
         finally:
-            self.ctx = self.material = self.renderer = None
+            self.ctx = self.material = self.renderer = self.upscale = None
             if context is not None:
                 context.doneCurrent()
             if self.surface is not None and shiboken6.isValid(self.surface):
@@ -95,8 +116,29 @@ class GLResources:
             self.surface = None
 
 
+    def low_resolution_target(self, width: int, height: int) -> moderngl.Framebuffer:
+        if self.low_target is None or self.low_target.size != (width, height):
+            self.release_low_target()
+            texture = self.ctx.texture((width, height), 4)
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self.low_target = self.ctx.framebuffer([texture])
+        return self.low_target
+
+    def release_low_target(self) -> None:
+        if self.low_target is not None:
+            for texture in self.low_target.color_attachments:
+                texture.release()
+            self.low_target.release()
+            self.low_target = None
+
+
 class SandView(QOpenGLWidget):
     """Draws one frame on demand; all GL work happens with this widget's context current.
+
+    The grains come from the editor's one generation (``set_grains``); the view uploads them
+    the next time it draws, so a hidden view does no work for an edit. While the camera, the
+    clock or the preset is changing, frames are drawn at reduced resolution (``scale``), and
+    ``SETTLE_MS`` after the last change once more at full resolution.
 
     Signals
     -------
@@ -105,7 +147,8 @@ class SandView(QOpenGLWidget):
     zoomed(float)
         A wheel turn: the factor to multiply the distance by.
     rendered(dict)
-        A frame was drawn: the renderer's timings plus ``total_ms``.
+        A frame was drawn: the renderer's timings plus ``total_ms`` (CPU and GPU, the frame
+        finished) and ``scale`` (the fraction of the widget's pixels along each side).
     failed(str)
         The view cannot draw (no suitable context, or initialisation raised).
     """
@@ -123,13 +166,23 @@ class SandView(QOpenGLWidget):
         self.error: str | None = None
         self.last_timings: dict | None = None
         self.frames = 0
+        self.full_frames = 0  # frames drawn at full resolution
+        self.grain_uploads = 0  # tiles uploaded into the material
         self.distance_m = 1.0
         self.pitch_deg = 45.0
         self.heading_deg = 0.0
         self.time_hours = 10.0
         self.mode = "full"
         self.show_sphere = False
+        self.adaptive = True  # False: every frame at full resolution
+        self.moving_scale = 0.5
         self._preset = preset
+        self._pending_grains: tuple[SandTextures, object] | None = None
+        self._grains_generation = None  # generation parameters of the uploaded grains
+        self._material_stale = True
+        self._moving = False
+        self._settle = QTimer(self, singleShot=True, interval=SETTLE_MS)
+        self._settle.timeout.connect(self._settled)
         self._drag_from: QPointF | None = None
 
     @property
@@ -144,6 +197,18 @@ class SandView(QOpenGLWidget):
     def renderer(self) -> SandRenderer | None:
         return self.gl.renderer
 
+    @property
+    def grains_generation(self):
+        """The generation parameters of the grains the view draws with (None before any)."""
+        return self._grains_generation
+
+    @property
+    def at_rest(self) -> bool:
+        """Nothing is changing and the last frame was drawn at full resolution."""
+        return not self._moving and self.last_timings is not None and (
+            self.last_timings["scale"] == 1.0
+        )
+
     # -- state -----------------------------------------------------------------------------------
 
     def set_view(self, **values) -> None:
@@ -152,25 +217,29 @@ class SandView(QOpenGLWidget):
             if not hasattr(self, name):
                 raise AttributeError(name)
             setattr(self, name, value)
-        self.update()
+        self.changing()
 
     def set_preset(self, preset: Preset) -> None:
         self._preset = preset
-        if self.material is None:
-            return  # initializeGL picks it up
-        self._with_context(lambda: self.material.update(preset))
+        self._material_stale = True
+        self.changing()
+
+    def set_grains(self, textures: SandTextures, generation) -> None:
+        """A full tile of ``generation`` from the editor's generation, uploaded when next drawn."""
+        self._pending_grains = (textures, generation)
+        self._material_stale = True
+        self.changing()
+
+    def changing(self) -> None:
+        """Something in view changes: draw at reduced resolution until it settles."""
+        if self.adaptive:
+            self._moving = True
+            self._settle.start()
         self.update()
 
-    def _with_context(self, work) -> None:
-        # Our GLX context cannot be made current while the headless EGL one is.
-        release_standalone_context()
-        self.makeCurrent()
-        try:
-            work()
-        except Exception as error:  # a driver error is shown, not fatal to the editor
-            self._fail(f"3D view: {error}")
-        finally:
-            self.doneCurrent()
+    def _settled(self) -> None:
+        self._moving = False
+        self.update()
 
     def _fail(self, message: str) -> None:
         self.error = message
@@ -187,19 +256,18 @@ class SandView(QOpenGLWidget):
                 f"{fmt.majorVersion()}.{fmt.minorVersion()}."
             )
             return
+        release_standalone_context()  # Qt's context and an EGL one cannot both be current
         gl = self.gl
         try:
             gl.ctx = moderngl.create_context()
-            gl.material = SandMaterial(gl.ctx, TEXTURE_SIZE)
-            gl.material.update(self._preset)
             gl.renderer = SandRenderer(gl.ctx)
-            gl.renderer.set_material(gl.material)
+            gl.upscale = fullscreen_program(gl.ctx, "upscale.frag")
         except Exception as error:
             self._fail(f"Cannot start the 3D view: {error}")
             return
-        # Where the context must be made current while the widget is being destroyed.
-        # Owned by the widget, so it outlives the context's destruction (the widget's children
-        # go last), whatever Python collects first at exit.
+        # Where the context must be made current while the widget is being destroyed. Owned
+        # by the widget, so it outlives the context's destruction (the widget's children go
+        # last), whatever Python collects first at exit.
         gl.surface = QOffscreenSurface(None, self)
         gl.surface.setFormat(self.context().format())
         gl.surface.create()
@@ -211,12 +279,47 @@ class SandView(QOpenGLWidget):
             lambda: gl.release(shiboken6.wrapInstance(address, QOpenGLContext))
         )
 
+    def _sync_material(self) -> None:
+        """Upload a new tile, or follow a shading change, in the material (context current)."""
+        gl = self.gl
+        if self._pending_grains is not None:
+            textures, generation = self._pending_grains
+            self._pending_grains = None
+            if gl.material is None or gl.material.texture_size != textures.size:
+                if gl.material is not None:
+                    gl.material.release()
+                gl.material = SandMaterial(gl.ctx, textures.size)
+                gl.renderer.set_material(gl.material)
+            self._grains_generation = generation
+            gl.material.set_grains(self._material_preset(), textures)
+            self.grain_uploads += 1
+        elif self._material_stale and gl.material is not None:
+            gl.material.update(self._material_preset())
+        self._material_stale = False
+
+    def _material_preset(self) -> Preset:
+        # The shading of the current preset on the grains the view has: a generation edit
+        # shows once its tile arrives, and the material never generates grains itself.
+        if self._preset.generation == self._grains_generation:
+            return self._preset
+        return dataclasses.replace(self._preset, generation=self._grains_generation)
+
     def paintGL(self) -> None:
         if self.renderer is None or self.error is not None:
             return
+        start = time.perf_counter()
+        try:
+            self._sync_material()
+        except Exception as error:  # a driver error is shown, not fatal to the editor
+            self._fail(f"3D view: {error}")
+            return
+        if self.material is None:
+            return  # the first tile is still being generated
         ratio = self.devicePixelRatioF()
         width = max(1, round(self.width() * ratio))
         height = max(1, round(self.height() * ratio))
+        scale = self.moving_scale if self._moving else 1.0
+        low = (max(1, round(width * scale)), max(1, round(height * scale)))
         terrain = self.renderer.terrain
         try:
             camera = camera_at_distance(
@@ -226,24 +329,46 @@ class SandView(QOpenGLWidget):
                 ground_height=lambda x, z: float(terrain.height(x, z)),
                 heading_deg=self.heading_deg,
             )
-            fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
-            fbo.use()
-            start = time.perf_counter()
+            screen = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
+            target = screen if scale == 1.0 else self.gl.low_resolution_target(*low)
             timings = self.renderer.render(
-                fbo,
+                target,
                 camera,
                 sky_at(self.time_hours),
                 self.mode,
-                viewport=(0, 0, width, height),
+                viewport=(0, 0, *low),
                 show_sphere=self.show_sphere,
             )
+            if target is not screen:
+                self._scale_up(target, screen, (width, height))
+            # The frame's whole cost, not only the CPU's share of it.
+            self.ctx.finish()
         except Exception as error:
             self._fail(f"3D view: {error}")
             return
         timings["total_ms"] = (time.perf_counter() - start) * 1e3
+        timings["scale"] = scale
         self.frames += 1
+        self.full_frames += scale == 1.0
+        if self._moving:
+            self._adapt_scale(timings["total_ms"], scale)
         self.last_timings = timings
         self.rendered.emit(timings)
+
+    def _scale_up(self, source: moderngl.Framebuffer, screen, size: tuple[int, int]) -> None:
+        program = self.gl.upscale
+        source.color_attachments[0].use(location=0)
+        program["u_source"].value = 0
+        program["u_size"].value = tuple(float(v) for v in size)
+        with drawing_into(self.ctx, screen):
+            self.ctx.viewport = (0, 0, *size)
+            draw_fullscreen(self.ctx, program)
+
+    def _adapt_scale(self, frame_ms: float, scale: float) -> None:
+        # Cost grows with the pixel count, the square of the scale; damped against jitter.
+        wanted = scale * math.sqrt(FRAME_BUDGET_MS / max(frame_ms, 1e-3))
+        wanted = 0.5 * scale + 0.5 * wanted
+        self.moving_scale = min(max(wanted, MIN_SCALE), MAX_MOVING_SCALE)
 
     def cleanup(self) -> None:
         """Release our GL objects now (the view then stays blank)."""
@@ -432,10 +557,12 @@ class View3DPanel(QWidget):
         self.view.set_view(pitch_deg=pitch)
 
     def _show_timings(self, timings: dict) -> None:
+        scale = timings["scale"]
+        resolution = "full resolution" if scale == 1.0 else f"{scale:.0%} resolution while moving"
         self.status.setText(
-            f"{self.view.mode} · {timings['total_ms']:.1f} ms CPU "
-            f"(sky {timings['sky_ms']:.1f}, surface {timings['surface_ms']:.1f}, "
-            f"post {timings['post_ms']:.1f}) · exposure {timings['exposure']:.2f}"
+            f"{self.view.mode} · frame {timings['total_ms']:.0f} ms at {resolution} "
+            f"(CPU: sky {timings['sky_ms']:.1f}, surface {timings['surface_ms']:.1f}, "
+            f"post {timings['post_ms']:.1f} ms) · exposure {timings['exposure']:.2f}"
         )
 
     # -- the running day ---------------------------------------------------------------------------
@@ -453,6 +580,9 @@ class View3DPanel(QWidget):
         self.set_time(advance(self.view.time_hours, seconds, self.day_speed.value()))
 
     def showEvent(self, event) -> None:
+        # Qt makes its GLX contexts current from now on, which libglvnd refuses while a
+        # headless EGL context (a script's, or a test's) is current on this thread.
+        release_standalone_context()
         super().showEvent(event)
         self._update_day_timer()
         # A context that could not be created never reaches initializeGL: say so.

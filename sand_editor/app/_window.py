@@ -72,7 +72,7 @@ class EditorWindow(QMainWindow):
         self.statusBar().addPermanentWidget(self.statistics_label)
 
         self.regenerator = Regenerator(self.preview.preview_size, self)
-        self.regenerator.produced.connect(self.preview.show_textures)
+        self.regenerator.produced.connect(self._show_tile)
         self.regenerator.finished.connect(self._show_statistics)
         self.regenerator.failed.connect(self._show_generation_error)
         self.preview.size_changed.connect(self.regenerator.set_size)
@@ -154,6 +154,7 @@ class EditorWindow(QMainWindow):
         if self.maybe_save():
             # GL objects go while their context is still whole, not in Qt's teardown at exit.
             self.preview.release_gl()
+            self.regenerator.shutdown()
             event.accept()
         else:
             event.ignore()
@@ -266,8 +267,13 @@ class EditorWindow(QMainWindow):
         self.setWindowModified(modified)
         self.revert_action.setEnabled(modified)
 
+    def _show_tile(self, textures: SandTextures, final: bool) -> None:
+        self.preview.show_textures(textures, final)
+        if final:
+            self.preview.set_grains(textures, self.regenerator.generation)
+
     def _show_statistics(self, textures: SandTextures, seconds: float) -> None:
-        stats = textures.statistics(self.model.preset.generation.layers)
+        stats = self.regenerator.statistics
         coverage = stats["coverage_per_layer"]
         top = f"{coverage[0]:.1%}" if coverage else "—"
         self.statistics_label.setText(

@@ -65,22 +65,22 @@ def test_night_is_darker_than_noon(panel):
 
 
 def test_shading_changes_keep_the_grains_and_generation_changes_replace_them(panel, qtbot):
-    material = panel.view.material
-    grains = material._grains
-    frames = panel.view.frames
+    view = panel.view
+    material = view.material
+    uploads = view.grain_uploads
+    frames = view.frames
 
     panel.model.edit("shading.glint_mu", 1.0)
-    qtbot.waitUntil(lambda: panel.view.frames > frames, timeout=TIMEOUT_MS)
-    assert material._grains is grains
+    qtbot.waitUntil(lambda: view.frames > frames, timeout=TIMEOUT_MS)
+    assert view.grain_uploads == uploads
     assert material.preset.shading.glint_mu == 1.0
 
-    frames = panel.view.frames
     panel.model.edit("generation.seed", panel.model.preset.generation.seed + 1)
-    qtbot.waitUntil(lambda: panel.view.frames > frames, timeout=TIMEOUT_MS)
-    assert material._grains is not grains
-    assert material.preset == panel.model.preset
-    assert panel.view.ctx.error == "GL_NO_ERROR"
-    # The texture preview still regenerates in its own context alongside the view.
+    qtbot.waitUntil(lambda: view.grain_uploads > uploads, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: view.material.preset == panel.model.preset, timeout=TIMEOUT_MS)
+    assert view.grains_generation == panel.model.preset.generation
+    assert view.ctx.error == "GL_NO_ERROR"
+    # The texture preview shows the same tile the view took.
     qtbot.waitUntil(lambda: not panel.window().regenerator.busy, timeout=TIMEOUT_MS)
     assert panel.window().preview.textures.size == panel.window().preview.preview_size
 
