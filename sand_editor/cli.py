@@ -92,6 +92,13 @@ def _cmd_bench(args) -> int:
         from sand_editor.bench.render import main as bench_render
 
         return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
+    if args.what == "editor":
+        if args.sizes or args.plot:
+            raise CommandError("--sizes and --plot do not apply to the editor benchmark")
+        # Lives with the editor: only the app package may import Qt.
+        from sand_editor.app._bench import main as bench_editor
+
+        return bench_editor(quick=args.quick, json_path=args.json)
     raise CommandError(f"unknown benchmark {args.what!r}")
 
 
@@ -126,7 +133,7 @@ def _parser() -> argparse.ArgumentParser:
     render.set_defaults(run=_cmd_render)
 
     bench = sub.add_parser("bench", help="measure speed against error")
-    bench.add_argument("what", choices=["generator", "render"], help="what to measure")
+    bench.add_argument("what", choices=["generator", "render", "editor"], help="what to measure")
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
     bench.add_argument(
         "--sizes", type=int, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"

@@ -153,9 +153,7 @@ class Regenerator(QObject):
             self._stopping = False
             self._condition.notify()
         if self._thread is None:
-            self._thread = threading.Thread(
-                target=self._work, name="sand-generator", daemon=True
-            )
+            self._thread = threading.Thread(target=self._work, name="sand-generator", daemon=True)
             self._thread.start()
 
     def _on_delivered(self, serial: int, textures: SandTextures, final: bool, statistics) -> None:

@@ -8,6 +8,7 @@ import math
 import time
 
 import moderngl
+import numpy as np
 import shiboken6
 from PySide6.QtCore import QElapsedTimer, QPointF, Qt, QTimer, Signal
 from PySide6.QtGui import QOffscreenSurface, QOpenGLContext, QSurfaceFormat
@@ -46,7 +47,8 @@ from sand_editor.render.sky import advance, sky_at
 # pixels, chosen so a frame takes about FRAME_BUDGET_MS; SETTLE_MS after the last change, one
 # frame at full resolution.
 FRAME_BUDGET_MS = 25.0
-MIN_SCALE = 0.2
+MIN_SCALE = 0.08
+MIN_BAND_ROWS = 8
 MAX_MOVING_SCALE = 0.75
 SETTLE_MS = 300
 MIN_DISTANCE_M = 1e-3
@@ -80,8 +82,9 @@ class GLResources:
         self.material: SandMaterial | None = None
         self.renderer: SandRenderer | None = None
         self.surface: QOffscreenSurface | None = None
-        # The reduced-resolution frame and the pass that scales it up to the widget.
-        self.low_target: moderngl.Framebuffer | None = None
+        # The reduced-resolution frame, the full one being refined, and the pass that draws
+        # them onto the widget.
+        self.targets: dict[str, moderngl.Framebuffer] = {}
         self.upscale: moderngl.Program | None = None
         # The GL error state when the objects went away; None until then.
         self.release_error: str | None = None
@@ -93,7 +96,7 @@ class GLResources:
         if context is not None and not shiboken6.isValid(self.surface):
             # Nothing left to make current: the objects go with the context itself.
             self.ctx = self.material = self.renderer = self.surface = None
-            self.low_target = self.upscale = None
+            self.targets, self.upscale = {}, None
             return
         if context is not None:
             release_standalone_context()
@@ -102,7 +105,8 @@ class GLResources:
             for owner in (self.renderer, self.material):
                 if owner is not None:
                     owner.release()
-            self.release_low_target()
+            for name in list(self.targets):
+                self.release_target(name)
             if self.upscale is not None:
                 self.upscale.release()
             self.release_error = self.ctx.error
@@ -115,21 +119,22 @@ class GLResources:
                 self.surface.destroy()
             self.surface = None
 
-
-    def low_resolution_target(self, width: int, height: int) -> moderngl.Framebuffer:
-        if self.low_target is None or self.low_target.size != (width, height):
-            self.release_low_target()
+    def target(self, name: str, width: int, height: int) -> moderngl.Framebuffer:
+        """An offscreen colour target of the view, kept until its size changes."""
+        current = self.targets.get(name)
+        if current is None or current.size != (width, height):
+            self.release_target(name)
             texture = self.ctx.texture((width, height), 4)
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self.low_target = self.ctx.framebuffer([texture])
-        return self.low_target
+            self.targets[name] = self.ctx.framebuffer([texture])
+        return self.targets[name]
 
-    def release_low_target(self) -> None:
-        if self.low_target is not None:
-            for texture in self.low_target.color_attachments:
+    def release_target(self, name: str) -> None:
+        framebuffer = self.targets.pop(name, None)
+        if framebuffer is not None:
+            for texture in framebuffer.color_attachments:
                 texture.release()
-            self.low_target.release()
-            self.low_target = None
+            framebuffer.release()
 
 
 class SandView(QOpenGLWidget):
@@ -174,13 +179,19 @@ class SandView(QOpenGLWidget):
         self.time_hours = 10.0
         self.mode = "full"
         self.show_sphere = False
-        self.adaptive = True  # False: every frame at full resolution
         self.moving_scale = 0.5
         self._preset = preset
         self._pending_grains: tuple[SandTextures, object] | None = None
         self._grains_generation = None  # generation parameters of the uploaded grains
         self._material_stale = True
         self._moving = False
+        self._refined_rows = 0  # rows of the full-resolution frame drawn since the last change
+        self._refined_size = (0, 0)
+        self._pixel_ms = 0.002  # what a pixel costs, measured on every frame
+        self._frame_end = 0.0
+        self._frame_ms = 0.0
+        self._frame_timer = QTimer(self, singleShot=True)
+        self._frame_timer.timeout.connect(self.update)
         self._settle = QTimer(self, singleShot=True, interval=SETTLE_MS)
         self._settle.timeout.connect(self._settled)
         self._drag_from: QPointF | None = None
@@ -204,9 +215,11 @@ class SandView(QOpenGLWidget):
 
     @property
     def at_rest(self) -> bool:
-        """Nothing is changing and the last frame was drawn at full resolution."""
-        return not self._moving and self.last_timings is not None and (
-            self.last_timings["scale"] == 1.0
+        """Nothing is changing and the full-resolution frame is complete."""
+        return (
+            not self._moving
+            and self.last_timings is not None
+            and self.last_timings["refined"] == 1.0
         )
 
     # -- state -----------------------------------------------------------------------------------
@@ -232,14 +245,23 @@ class SandView(QOpenGLWidget):
 
     def changing(self) -> None:
         """Something in view changes: draw at reduced resolution until it settles."""
-        if self.adaptive:
-            self._moving = True
-            self._settle.start()
-        self.update()
+        self._moving = True
+        self._refined_rows = 0
+        self._settle.start()
+        self._request_frame()
+
+    def _request_frame(self) -> None:
+        # After a frame the event loop gets at least as long again to itself: input and
+        # timers wait for at most one frame, never for a queue of them.
+        wait_ms = (self._frame_end + self._frame_ms / 1e3 - time.perf_counter()) * 1e3
+        if wait_ms <= 0:
+            self.update()
+        elif not self._frame_timer.isActive():
+            self._frame_timer.start(math.ceil(wait_ms))
 
     def _settled(self) -> None:
         self._moving = False
-        self.update()
+        self._request_frame()
 
     def _fail(self, message: str) -> None:
         self.error = message
@@ -316,53 +338,110 @@ class SandView(QOpenGLWidget):
         if self.material is None:
             return  # the first tile is still being generated
         ratio = self.devicePixelRatioF()
-        width = max(1, round(self.width() * ratio))
-        height = max(1, round(self.height() * ratio))
-        scale = self.moving_scale if self._moving else 1.0
-        low = (max(1, round(width * scale)), max(1, round(height * scale)))
-        terrain = self.renderer.terrain
+        size = (max(1, round(self.width() * ratio)), max(1, round(self.height() * ratio)))
         try:
-            camera = camera_at_distance(
-                self.distance_m,
-                self.pitch_deg,
-                width / height,
-                ground_height=lambda x, z: float(terrain.height(x, z)),
-                heading_deg=self.heading_deg,
-            )
             screen = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
-            target = screen if scale == 1.0 else self.gl.low_resolution_target(*low)
-            timings = self.renderer.render(
-                target,
-                camera,
-                sky_at(self.time_hours),
-                self.mode,
-                viewport=(0, 0, *low),
-                show_sphere=self.show_sphere,
-            )
-            if target is not screen:
-                self._scale_up(target, screen, (width, height))
+            camera = self._camera(size)
+            timings = None
+            fresh = self._refined_rows == 0 or size != self._refined_size
+            if self._moving or fresh or "moving" not in self.gl.targets:
+                timings = self._draw_moving(camera, size)
+                self._refined_rows, self._refined_size = 0, size
+            if not self._moving:
+                timings = self._refine(camera, size) or timings
+            self._show(screen, size)
             # The frame's whole cost, not only the CPU's share of it.
             self.ctx.finish()
         except Exception as error:
             self._fail(f"3D view: {error}")
             return
-        timings["total_ms"] = (time.perf_counter() - start) * 1e3
-        timings["scale"] = scale
+        if timings is None:
+            return  # an expose: the finished frame shown again
+        self._frame_end = time.perf_counter()
+        self._frame_ms = timings["total_ms"] = (self._frame_end - start) * 1e3
+        if timings["scale"] < 1.0:
+            self._adapt_scale(timings["total_ms"], timings["scale"])
         self.frames += 1
-        self.full_frames += scale == 1.0
-        if self._moving:
-            self._adapt_scale(timings["total_ms"], scale)
+        self.full_frames += timings["refined"] == 1.0
         self.last_timings = timings
         self.rendered.emit(timings)
+        if timings["refined"] < 1.0 and not self._moving:
+            self._request_frame()  # the next band
 
-    def _scale_up(self, source: moderngl.Framebuffer, screen, size: tuple[int, int]) -> None:
+    def _camera(self, size: tuple[int, int]):
+        terrain = self.renderer.terrain
+        return camera_at_distance(
+            self.distance_m,
+            self.pitch_deg,
+            size[0] / size[1],
+            ground_height=lambda x, z: float(terrain.height(x, z)),
+            heading_deg=self.heading_deg,
+        )
+
+    def _render(self, target, camera, viewport) -> dict:
+        return self.renderer.render(
+            target,
+            camera,
+            sky_at(self.time_hours),
+            self.mode,
+            viewport=viewport,
+            show_sphere=self.show_sphere,
+        )
+
+    def _draw_moving(self, camera, size: tuple[int, int]) -> dict:
+        scale = self.moving_scale
+        low = (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
+        start = time.perf_counter()
+        timings = self._render(self.gl.target("moving", *low), camera, (0, 0, *low))
+        self.ctx.finish()
+        self._pixel_ms = (time.perf_counter() - start) * 1e3 / (low[0] * low[1])
+        timings.update(scale=scale, refined=0.0)
+        return timings
+
+    def _refine(self, camera, size: tuple[int, int]) -> dict | None:
+        """Draw the next band of rows of the full-resolution frame; None when it is complete.
+
+        Each band is a frame of its own through the matching slice of the camera's frustum,
+        sized to take about ``FRAME_BUDGET_MS``, so the event loop runs between bands.
+        """
+        width, height = size
+        full = self.gl.target("full", width, height)
+        if self._refined_rows >= height:
+            return None
+        rows = int(FRAME_BUDGET_MS / max(self._pixel_ms * width, 1e-6))
+        rows = min(max(rows, MIN_BAND_ROWS), height - self._refined_rows)
+        first = self._refined_rows
+        band_camera = _band_camera(camera, first, first + rows, height)
+        start = time.perf_counter()
+        timings = self._render(full, band_camera, (0, first, width, rows))
+        self.ctx.finish()
+        self._pixel_ms = (time.perf_counter() - start) * 1e3 / (width * rows)
+        self._refined_rows = first + rows
+        timings.update(scale=1.0, refined=self._refined_rows / height)
+        return timings
+
+    def _show(self, screen, size: tuple[int, int]) -> None:
+        """The reduced frame scaled up, with the rows refined so far over it."""
+        moving = self.gl.targets.get("moving")
+        if moving is not None:
+            self._draw_target(moving, screen, size, size[1])
+        if not self._moving and self._refined_rows > 0 and "full" in self.gl.targets:
+            self._draw_target(self.gl.targets["full"], screen, size, self._refined_rows)
+
+    def _draw_target(self, source, screen, size: tuple[int, int], rows: int) -> None:
         program = self.gl.upscale
         source.color_attachments[0].use(location=0)
         program["u_source"].value = 0
         program["u_size"].value = tuple(float(v) for v in size)
         with drawing_into(self.ctx, screen):
+            # The viewport covers the whole widget (so the shader's coordinates do); the
+            # scissor keeps the rows wanted.
             self.ctx.viewport = (0, 0, *size)
-            draw_fullscreen(self.ctx, program)
+            self.ctx.scissor = (0, 0, size[0], rows)
+            try:
+                draw_fullscreen(self.ctx, program)
+            finally:
+                self.ctx.scissor = None
 
     def _adapt_scale(self, frame_ms: float, scale: float) -> None:
         # Cost grows with the pixel count, the square of the scale; damped against jitter.
@@ -596,6 +675,18 @@ class View3DPanel(QWidget):
         if self.view.isVisible() and not self.view.isValid() and self.view.error is None:
             self.view.error = "Cannot create an OpenGL 3.3 core context for the 3D view."
             self.show_message(self.view.error)
+
+
+def _band_camera(camera, first_row: int, end_row: int, height: int):
+    """The camera whose frustum is rows [first_row, end_row) of ``camera``'s (rows from the
+    bottom): clip y is stretched so that band fills the viewport."""
+    bottom = 2.0 * first_row / height - 1.0
+    top = 2.0 * end_row / height - 1.0
+    stretch = np.eye(4)
+    stretch[1, 1] = 2.0 / (top - bottom)
+    stretch[1, 3] = -(top + bottom) / (top - bottom)
+    projection = stretch @ camera.projection.astype(np.float64)
+    return dataclasses.replace(camera, projection=projection.astype(np.float32))
 
 
 def _step_of_distance(distance_m: float) -> int:
