@@ -30,7 +30,11 @@ def preset_path(text: str | None) -> Path:
 def _cmd_edit(args) -> int:
     from sand_editor.app import run_editor
 
-    return run_editor(preset_path(args.preset))
+    if args.tab is not None and args.screenshot is None:
+        raise CommandError("--tab applies to --screenshot only")
+    return run_editor(
+        preset_path(args.preset), screenshot=args.screenshot, tab=args.tab or "albedo"
+    )
 
 
 def _cmd_bake(args) -> int:
@@ -111,6 +115,16 @@ def _parser() -> argparse.ArgumentParser:
 
     edit = sub.add_parser("edit", help="open the editor (the default command)")
     edit.add_argument("preset", nargs="?", help="preset file or bundled preset name")
+    edit.add_argument(
+        "--screenshot",
+        metavar="FILE",
+        help="save a PNG of the window once it is completely drawn, then exit",
+    )
+    edit.add_argument(
+        "--tab",
+        choices=["albedo", "normals", "glint", "layers", "3d"],
+        help="the preview tab shown in the screenshot (default albedo)",
+    )
     edit.set_defaults(run=_cmd_edit)
 
     bake = sub.add_parser("bake", help="write a preset's grain textures as PNG files")

@@ -82,6 +82,7 @@ class PreviewPanel(QWidget):
         super().__init__(parent)
         self._model = model
         self.view3d = None  # the 3D panel, made when its tab is first shown
+        self.view3d_state: dict = {}  # settings the 3D panel starts with (remembered ones)
         self._textures: SandTextures | None = None
         # The latest full tile and its generation parameters, for the 3D view.
         self._grains: tuple[SandTextures, object] | None = None
@@ -155,6 +156,7 @@ class PreviewPanel(QWidget):
             # Made on demand: an OpenGL widget turns the whole window into a GL-composited one,
             # which an editor that never opens this tab does not need to pay for.
             self.view3d = View3DPanel(self._model)
+            self.view3d.apply_state(self.view3d_state)
             if self._grains is not None:
                 self.view3d.view.set_grains(*self._grains)
             self.pages.addWidget(self.view3d)

@@ -188,6 +188,7 @@ class SandView(QOpenGLWidget):
         self._refined_rows = 0  # rows of the full-resolution frame drawn since the last change
         self._refined_size = (0, 0)
         self._pixel_ms = 0.002  # what a pixel costs, measured on every frame
+        self._refine_ms, self._bands = 0.0, 0
         self._frame_end = 0.0
         self._frame_ms = 0.0
         self._frame_timer = QTimer(self, singleShot=True)
@@ -304,6 +305,9 @@ class SandView(QOpenGLWidget):
     def _sync_material(self) -> None:
         """Upload a new tile, or follow a shading change, in the material (context current)."""
         gl = self.gl
+        # Qt leaves its own state behind (blending, for one): the material's passes start
+        # from none.
+        gl.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         if self._pending_grains is not None:
             textures, generation = self._pending_grains
             self._pending_grains = None
@@ -411,13 +415,22 @@ class SandView(QOpenGLWidget):
         rows = int(FRAME_BUDGET_MS / max(self._pixel_ms * width, 1e-6))
         rows = min(max(rows, MIN_BAND_ROWS), height - self._refined_rows)
         first = self._refined_rows
+        if first == 0:
+            self._refine_ms, self._bands = 0.0, 0
         band_camera = _band_camera(camera, first, first + rows, height)
         start = time.perf_counter()
         timings = self._render(full, band_camera, (0, first, width, rows))
         self.ctx.finish()
         self._pixel_ms = (time.perf_counter() - start) * 1e3 / (width * rows)
         self._refined_rows = first + rows
-        timings.update(scale=1.0, refined=self._refined_rows / height)
+        self._refine_ms += (time.perf_counter() - start) * 1e3
+        self._bands += 1
+        timings.update(
+            scale=1.0,
+            refined=self._refined_rows / height,
+            refine_ms=self._refine_ms,
+            bands=self._bands,
+        )
         return timings
 
     def _show(self, screen, size: tuple[int, int]) -> None:
@@ -589,6 +602,37 @@ class View3DPanel(QWidget):
 
     # -- controls ----------------------------------------------------------------------------------
 
+    def state(self) -> dict:
+        """Camera, clock, mode and sphere, as ``apply_state`` takes them (for QSettings)."""
+        view = self.view
+        return {
+            "distance_m": view.distance_m,
+            "pitch_deg": view.pitch_deg,
+            "heading_deg": view.heading_deg,
+            "time_hours": view.time_hours,
+            "mode": view.mode,
+            "show_sphere": view.show_sphere,
+            "day_speed": self.day_speed.value(),
+        }
+
+    def apply_state(self, values: dict) -> None:
+        """Set the controls (and so the view) from a ``state()`` dict; unknown or out-of-range
+        values are clamped or left at their current setting."""
+        if "distance_m" in values:
+            self.set_distance(values["distance_m"])
+        if "pitch_deg" in values:
+            self.pitch_slider.setValue(round(min(max(values["pitch_deg"], 1.0), 90.0)))
+        if "heading_deg" in values:
+            self.heading_spin.setValue(int(values["heading_deg"]) % 360)
+        if "time_hours" in values:
+            self.set_time(min(max(values["time_hours"], 0.0), 24.0))
+        if values.get("mode") in MODES:
+            self.mode_combo.setCurrentIndex(MODES.index(values["mode"]))
+        if "show_sphere" in values:
+            self.sphere.setChecked(bool(values["show_sphere"]))
+        if "day_speed" in values:
+            self.day_speed.setValue(int(values["day_speed"]))
+
     def set_distance(self, distance_m: float) -> None:
         distance_m = min(max(float(distance_m), MIN_DISTANCE_M), MAX_DISTANCE_M)
         for widget, value in (
@@ -636,12 +680,16 @@ class View3DPanel(QWidget):
         self.view.set_view(pitch_deg=pitch)
 
     def _show_timings(self, timings: dict) -> None:
-        scale = timings["scale"]
-        resolution = "full resolution" if scale == 1.0 else f"{scale:.0%} resolution while moving"
+        if timings["refined"] == 0.0:
+            frame = f"frame {timings['total_ms']:.0f} ms at {timings['scale']:.0%} resolution"
+        elif timings["refined"] < 1.0:
+            frame = f"refining to full resolution: {timings['refined']:.0%}"
+        else:
+            frame = f"full resolution in {timings['refine_ms']:.0f} ms ({timings['bands']} bands)"
         self.status.setText(
-            f"{self.view.mode} · frame {timings['total_ms']:.0f} ms at {resolution} "
-            f"(CPU: sky {timings['sky_ms']:.1f}, surface {timings['surface_ms']:.1f}, "
-            f"post {timings['post_ms']:.1f} ms) · exposure {timings['exposure']:.2f}"
+            f"{self.view.mode} · {frame} · CPU sky {timings['sky_ms']:.1f}, "
+            f"surface {timings['surface_ms']:.1f}, post {timings['post_ms']:.1f} ms · "
+            f"exposure {timings['exposure']:.2f}"
         )
 
     # -- the running day ---------------------------------------------------------------------------
