@@ -101,6 +101,11 @@ class BakeDialog(QProgressDialog):
         job.cancelled.connect(self._finished)
         self.canceled.connect(job.cancel)
 
+    def cancel(self) -> None:
+        """Stop the bake (as the Cancel button does); nothing is written."""
+        self.job.cancel()
+        super().cancel()
+
     def _progressed(self, fraction: float, step: str) -> None:
         self.setLabelText(f"Baking {self.job.preset.name} at {self.job.size}²: {step}…")
         self.setValue(round(fraction * _PROGRESS_STEPS))

@@ -269,7 +269,8 @@ class EditorWindow(QMainWindow):
         for action in (self.screenshot_action, quit_, self.undo_action, self.redo_action):
             action.setToolTip(_with_shortcut(action.text().replace("&", ""), action))
         # Undo and redo rename themselves after each edit ("Undo Change Seed").
-        stack.indexChanged.connect(self._update_undo_tips)
+        stack.undoTextChanged.connect(self._update_undo_tips)
+        stack.redoTextChanged.connect(self._update_undo_tips)
 
     def _update_undo_tips(self) -> None:
         for action in (self.undo_action, self.redo_action):
@@ -417,15 +418,16 @@ class EditorWindow(QMainWindow):
         if self.settings is None:
             return
         layout = self.settings.layout()
+        # The tab first: the 3D tab's controls widen the window's minimum size.
+        self.preview.view3d_state = self.settings.view3d()
+        if layout["tab"] is not None and 0 <= layout["tab"] < self.preview.tabs.count():
+            self.preview.tabs.setCurrentIndex(layout["tab"])
         if layout["geometry"] is not None:
             self.restoreGeometry(layout["geometry"])
         if layout["state"] is not None:
             self.restoreState(layout["state"])
         if layout["splitter"] is not None:
             self.splitter.restoreState(layout["splitter"])
-        self.preview.view3d_state = self.settings.view3d()
-        if layout["tab"] is not None and 0 <= layout["tab"] < self.preview.tabs.count():
-            self.preview.tabs.setCurrentIndex(layout["tab"])
 
     def _save_settings(self) -> None:
         if self.settings is None:
