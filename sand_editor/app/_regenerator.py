@@ -8,19 +8,32 @@ worker holds the interpreter only for one band of rows or one read-back at a tim
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+import functools
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Iterator
 
 from PySide6.QtCore import QObject, QTimer, Signal
 
-from sand_editor.generator import SandTextures, generate_progressive
+from sand_editor.generator import SandTextures, generate, gl_generator
+from sand_editor.generator.noise import NoiseConstants
 from sand_editor.preset import Preset
 
 DEBOUNCE_MS = 20
 FIRST_SIZE = 128
 BAND_ROWS = 128
 CACHE_TILES = 3
+
+
+@functools.cache
+def _gl_flush():
+    """glFlush of the calling thread's current context: starts the queued draws without
+    waiting for them (moderngl offers only finish(), which waits)."""
+    library = ctypes.util.find_library("OpenGL") or ctypes.util.find_library("GL")
+    return ctypes.CDLL(library or "libGL.so.1").glFlush
 
 
 class TextureCache:
@@ -59,7 +72,8 @@ class Regenerator(QObject):
 
     A request waits ``DEBOUNCE_MS`` for further requests (a slider drag sends many), then the
     worker renders a quick ``FIRST_SIZE`` tile and the full one in bands of ``BAND_ROWS`` rows;
-    a newer request cancels the running generation at its next band.
+    a newer request cancels the running generation at its next band. The full tile is shown
+    (``produced``) before its statistics are counted (``finished``).
 
     Signals
     -------
@@ -75,7 +89,8 @@ class Regenerator(QObject):
     finished = Signal(object, float)
     failed = Signal(str)
     # From the worker thread; queued into the GUI thread.
-    _delivered = Signal(int, object, bool, object)
+    _delivered = Signal(int, object, bool)
+    _counted = Signal(int, object)
     _errored = Signal(int, str)
 
     def __init__(self, size: int = 512, parent: QObject | None = None):
@@ -91,13 +106,16 @@ class Regenerator(QObject):
         self._serial = 0  # the job the GUI wants; older ones are dropped
         self._running_serial: int | None = None
         self._started_at = 0.0
+        self._final: SandTextures | None = None
         self._job: _Job | None = None
         self._condition = threading.Condition()
         self._stopping = False
         self._thread: threading.Thread | None = None
         self._debounce = QTimer(self, singleShot=True, interval=DEBOUNCE_MS)
         self._debounce.timeout.connect(self._start)
+        self._band_seconds = 0.01
         self._delivered.connect(self._on_delivered)
+        self._counted.connect(self._on_counted)
         self._errored.connect(self._on_error)
 
     @property
@@ -156,16 +174,22 @@ class Regenerator(QObject):
             self._thread = threading.Thread(target=self._work, name="sand-generator", daemon=True)
             self._thread.start()
 
-    def _on_delivered(self, serial: int, textures: SandTextures, final: bool, statistics) -> None:
+    def _on_delivered(self, serial: int, textures: SandTextures, final: bool) -> None:
         if serial != self._serial:
             return  # a newer request replaced this one while it was on its way
         self.generation = self._preset.generation
         self.produced.emit(textures, final)
         if final:
-            self._running_serial = None
-            self.statistics = statistics
-            self.cache.put((self._preset.generation, textures.size), textures, statistics)
-            self.finished.emit(textures, time.perf_counter() - self._started_at)
+            self._final = textures
+
+    def _on_counted(self, serial: int, statistics: dict) -> None:
+        if serial != self._serial:
+            return
+        self._running_serial = None
+        self.statistics = statistics
+        textures = self._final
+        self.cache.put((self._preset.generation, textures.size), textures, statistics)
+        self.finished.emit(textures, time.perf_counter() - self._started_at)
 
     def _on_error(self, serial: int, message: str) -> None:
         if serial == self._serial:
@@ -203,19 +227,47 @@ class Regenerator(QObject):
                 ctx.release()
 
     def _generate(self, job: _Job, ctx) -> None:
-        steps = generate_progressive(
-            job.generation, job.size, first_size=FIRST_SIZE, band_rows=BAND_ROWS, ctx=ctx
-        )
+        tiles = self._tiles(job, ctx)
         try:
-            for textures in steps:
+            for textures in tiles:
                 if job.serial != self._serial or self._stopping:
                     return
-                if textures is None:
-                    continue
                 final = textures.size == job.size
-                statistics = textures.statistics(job.generation.layers) if final else None
-                self._delivered.emit(job.serial, textures, final, statistics)
+                self._delivered.emit(job.serial, textures, final)
+                if final:
+                    # Counted after the tile is on its way: the preview need not wait for it.
+                    self._counted.emit(job.serial, textures.statistics(job.generation.layers))
         except Exception as error:  # GL and driver errors are shown, not fatal
             self._errored.emit(job.serial, f"Cannot generate the textures: {error}")
         finally:
-            steps.close()  # runs the generator's cleanup now, releasing its GPU target
+            tiles.close()  # releases the GPU target of a generation cut short, now
+
+    def _tiles(self, job: _Job, ctx) -> Iterator[SandTextures]:
+        """The quick tile, then the full one drawn in bands. Between a band's draw and its
+        end the worker sleeps, which lets the GUI thread run Python: waiting in ``finish()``
+        instead would hold the interpreter for the whole band."""
+        generator = gl_generator(ctx)
+        constants = NoiseConstants.from_generation(job.generation)
+        if FIRST_SIZE < job.size:
+            yield generate(job.generation, FIRST_SIZE, ctx=ctx)
+        target = generator.allocate(job.size)
+        try:
+            for start in range(0, job.size, BAND_ROWS):
+                if job.serial != self._serial or self._stopping:
+                    return
+                stop = min(job.size, start + BAND_ROWS)
+                generator.render(constants, job.size, target, rows=(start, stop))
+                _gl_flush()()
+                time.sleep(self._band_seconds * (stop - start) / BAND_ROWS)
+                waited = time.perf_counter()
+                ctx.finish()
+                waited = time.perf_counter() - waited
+                # Sleep longer next time when the band was not done yet, a little less when
+                # it was: the sleep follows what a band costs now.
+                if waited > 0.002:
+                    self._band_seconds += waited
+                else:
+                    self._band_seconds *= 0.9
+            yield target.read(constants)
+        finally:
+            target.release()
