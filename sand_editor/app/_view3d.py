@@ -51,6 +51,7 @@ MIN_SCALE = 0.08
 MIN_BAND_ROWS = 8
 MAX_MOVING_SCALE = 0.75
 SETTLE_MS = 300
+CONTROLS_REFRESH_MS = 250
 MIN_DISTANCE_M = 1e-3
 MAX_DISTANCE_M = 100.0
 DISTANCE_STEPS = 1000  # slider positions across the log range
@@ -573,6 +574,9 @@ class View3DPanel(QWidget):
         layout.addLayout(grid)
         layout.addWidget(self.stack, 1)
 
+        self._timings: dict | None = None
+        self._controls_timer = QTimer(self, singleShot=True, interval=CONTROLS_REFRESH_MS)
+        self._controls_timer.timeout.connect(self._refresh_controls)
         self._clock = QElapsedTimer()
         self.day_timer = QTimer(self, interval=DAY_TICK_MS)
         self.day_timer.timeout.connect(self._tick)
@@ -591,7 +595,7 @@ class View3DPanel(QWidget):
         self.sphere.toggled.connect(lambda on: self.view.set_view(show_sphere=on))
         self.view.orbited.connect(self._orbit)
         self.view.zoomed.connect(lambda factor: self.set_distance(self.view.distance_m * factor))
-        self.view.rendered.connect(self._show_timings)
+        self.view.rendered.connect(self._frame_drawn)
         self.view.failed.connect(self.show_message)
         model.changed.connect(lambda preset, paths: self.view.set_preset(preset))
 
@@ -668,16 +672,37 @@ class View3DPanel(QWidget):
 
     def _orbit(self, heading_delta: float, pitch_delta: float) -> None:
         heading = (self.view.heading_deg + heading_delta) % 360.0
-        self.heading_spin.blockSignals(True)
-        self.heading_spin.setValue(int(heading) % 360)
-        self.heading_spin.blockSignals(False)
-        self.view.set_view(heading_deg=heading)
         pitch = min(max(self.view.pitch_deg + pitch_delta, 1.0), 90.0)
-        self.pitch_slider.blockSignals(True)
-        self.pitch_slider.setValue(round(pitch))
-        self.pitch_slider.blockSignals(False)
-        self.pitch_label.setText(f"{round(pitch)}°")
-        self.view.set_view(pitch_deg=pitch)
+        self.view.set_view(heading_deg=heading, pitch_deg=pitch)
+        self._refresh_controls_soon()
+
+    def _refresh_controls_soon(self) -> None:
+        # Controls that follow a drag or the running clock are redrawn a few times a second,
+        # not for every mouse move or tick: each redraw costs a composition of the window.
+        if not self._controls_timer.isActive():
+            self._controls_timer.start()
+
+    def _refresh_controls(self) -> None:
+        view = self.view
+        for widget, value in (
+            (self.heading_spin, int(view.heading_deg) % 360),
+            (self.pitch_slider, round(view.pitch_deg)),
+            (self.time_slider, round(view.time_hours * 60.0)),
+        ):
+            widget.blockSignals(True)
+            widget.setValue(value)
+            widget.blockSignals(False)
+        self.pitch_label.setText(f"{round(view.pitch_deg)}°")
+        self.time_label.setText(format_time(view.time_hours))
+        if self._timings is not None:
+            self._show_timings(self._timings)
+
+    def _frame_drawn(self, timings: dict) -> None:
+        self._timings = timings
+        if self.view.at_rest:
+            self._refresh_controls()  # the final numbers, at once
+        else:
+            self._refresh_controls_soon()
 
     def _show_timings(self, timings: dict) -> None:
         if timings["refined"] == 0.0:
@@ -704,7 +729,10 @@ class View3DPanel(QWidget):
 
     def _tick(self) -> None:
         seconds = self._clock.restart() / 1000.0
-        self.set_time(advance(self.view.time_hours, seconds, self.day_speed.value()))
+        self.view.set_view(
+            time_hours=advance(self.view.time_hours, seconds, self.day_speed.value())
+        )
+        self._refresh_controls_soon()
 
     def showEvent(self, event) -> None:
         # Qt makes its GLX contexts current from now on, which libglvnd refuses while a

@@ -44,12 +44,12 @@ def frame(panel) -> np.ndarray:
     return image
 
 
-def test_the_view_initialises_and_paints_the_desert(panel):
+def test_the_view_initialises_and_paints_the_desert(panel, qtbot):
     image = frame(panel)
     assert image.shape[:2] == (VIEW_SIZE[1], VIEW_SIZE[0])
     assert image.max() > 40, "all black"
     assert image.reshape(-1, 3).std(axis=0).max() > 1.0, "a single flat colour"
-    assert "ms" in panel.status.text()
+    qtbot.waitUntil(lambda: " ms" in panel.status.text(), timeout=TIMEOUT_MS)
     assert panel.mode_combo.count() == len(MODES)
 
 
@@ -118,7 +118,11 @@ def test_wheel_and_drag_move_the_camera(panel, qtbot):
     qtbot.mouseRelease(view, Qt.MouseButton.LeftButton, pos=QPoint(60, 30))
     assert view.heading_deg != 0.0
     assert view.pitch_deg < 45.0
-    assert panel.heading_spin.value() == int(view.heading_deg) % 360
+    # The controls follow a drag a few times a second.
+    qtbot.waitUntil(
+        lambda: panel.heading_spin.value() == int(view.heading_deg) % 360, timeout=TIMEOUT_MS
+    )
+    assert panel.pitch_slider.value() == round(view.pitch_deg)
 
 
 def test_a_running_day_advances_the_clock_only_while_shown(panel, qtbot):
@@ -126,6 +130,8 @@ def test_a_running_day_advances_the_clock_only_while_shown(panel, qtbot):
     panel.day_speed.setValue(3600)
     assert panel.day_timer.isActive()
     qtbot.waitUntil(lambda: panel.view.time_hours > 6.05, timeout=5_000)
+    qtbot.waitUntil(lambda: panel.time_slider.value() > 6 * 60, timeout=5_000)
+    assert panel.time_label.text() != "06:00"
     panel.window().preview.tabs.setCurrentIndex(0)
     assert not panel.day_timer.isActive()
     panel.day_speed.setValue(0)
