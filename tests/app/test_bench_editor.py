@@ -4,28 +4,18 @@ them (the numbers are the benchmark's business, not the test's)."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
 from sand_editor.app._bench import SCENARIOS
-
-REPO = Path(__file__).resolve().parents[2]
+from tests.app.conftest import run_python
 
 
 @pytest.mark.slow
 def test_bench_editor_reports_every_scenario(tmp_path):
     out = tmp_path / "editor.json"
-    result = subprocess.run(
-        [sys.executable, "-m", "sand_editor", "bench", "editor", "--quick", "--json", str(out)],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        timeout=300,
+    result = run_python(
+        "-m", "sand_editor", "bench", "editor", "--quick", "--json", str(out), timeout=300
     )
     assert result.returncode == 0, result.stderr[-3000:]
     results = json.loads(out.read_text())
@@ -40,13 +30,6 @@ def test_bench_editor_reports_every_scenario(tmp_path):
 
 
 def test_bench_editor_refuses_options_it_does_not_take():
-    result = subprocess.run(
-        [sys.executable, "-m", "sand_editor", "bench", "editor", "--plot", "x.png"],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    result = run_python("-m", "sand_editor", "bench", "editor", "--plot", "x.png")
     assert result.returncode == 1
     assert "--plot" in result.stderr

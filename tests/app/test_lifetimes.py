@@ -2,17 +2,13 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.qt
+from tests.app.conftest import run_python
 
-REPO = Path(__file__).resolve().parents[2]
+pytestmark = pytest.mark.qt
 
 CLOSE_AFTER_3D = textwrap.dedent(
     """
@@ -44,14 +40,7 @@ CLOSE_AFTER_3D = textwrap.dedent(
 
 
 def test_closing_after_the_3d_tab_was_used_prints_no_traceback():
-    result = subprocess.run(
-        [sys.executable, "-c", CLOSE_AFTER_3D],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        timeout=90,
-    )
+    result = run_python("-c", CLOSE_AFTER_3D, timeout=90)
     assert result.returncode == 0, result.stderr[-3000:]
     assert "error None" in result.stdout, result.stdout
     assert "Traceback" not in result.stderr, result.stderr[-3000:]

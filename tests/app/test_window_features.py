@@ -4,9 +4,6 @@ layout and settings, shortcuts in tooltips."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,12 +18,10 @@ from sand_editor.app._settings import SCHEMA_VERSION, EditorSettings
 from sand_editor.bake import FILES
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
-from tests.app.conftest import FIRST_PREVIEW_TIMEOUT_MS
+from tests.app.conftest import run_python, show_and_wait_for_tile
 from tests.app.test_view3d import TIMEOUT_MS, open_3d
 
 pytestmark = pytest.mark.qt
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
@@ -38,12 +33,7 @@ def make_window(qtbot, settings_file: Path, preset: Preset | None = None) -> Edi
     settings = QSettings(str(settings_file), QSettings.Format.IniFormat)
     window = EditorWindow(preset or Preset(), settings=settings)
     qtbot.addWidget(window, before_close_func=lambda w: w.model.undo_stack.setClean())
-    window.show()
-    qtbot.waitExposed(window)
-    qtbot.waitUntil(
-        lambda: not window.regenerator.busy and window.preview.textures is not None,
-        timeout=FIRST_PREVIEW_TIMEOUT_MS,
-    )
+    show_and_wait_for_tile(window, qtbot)
     return window
 
 
@@ -226,22 +216,15 @@ def test_save_screenshot_writes_the_window_as_png(qtbot, settings_file, tmp_path
 @pytest.mark.parametrize("tab", ["albedo", "normals", "glint", "layers", "3d"])
 def test_screenshot_option_saves_each_tab_and_exits(tmp_path, tab):
     path = tmp_path / f"{tab}.png"
-    result = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "sand_editor",
-            "red-desert",
-            "--screenshot",
-            str(path),
-            "--tab",
-            tab,
-        ],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO), "XDG_CONFIG_HOME": str(tmp_path / "cfg")},
-        capture_output=True,
-        text=True,
-        timeout=120,
+    result = run_python(
+        "-m",
+        "sand_editor",
+        "red-desert",
+        "--screenshot",
+        str(path),
+        "--tab",
+        tab,
+        env={"XDG_CONFIG_HOME": str(tmp_path / "cfg")},
     )
     assert result.returncode == 0, result.stderr[-3000:]
     assert "Traceback" not in result.stderr
@@ -258,14 +241,7 @@ def test_screenshot_option_saves_each_tab_and_exits(tmp_path, tab):
 
 
 def test_screenshot_option_with_an_unwritable_file_exits_1(tmp_path):
-    result = subprocess.run(
-        [sys.executable, "-m", "sand_editor", "--screenshot", str(tmp_path / "no" / "x.png")],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    result = run_python("-m", "sand_editor", "--screenshot", str(tmp_path / "no" / "x.png"))
     assert result.returncode == 1
     assert "cannot write" in result.stderr
 
