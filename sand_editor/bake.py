@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from sand_editor.generator import SandTextures, generate
+from sand_editor.generator import SandTextures, generate, generate_progressive
 from sand_editor.generator.noise import linear_to_srgb
 from sand_editor.preset import Preset
 
 LOW_RES_SIZE = 64
+_BAKE_BAND_ROWS = 128  # rows per generation step, so a caller can cancel between them
 FILES = {
     "albedo.png": "sRGB 8-bit RGB, the grain colours",
     "albedo_low.png": f"sRGB 8-bit RGB, {LOW_RES_SIZE}² area average of the albedo (far field)",
@@ -103,7 +104,19 @@ def bake(preset: Preset, size: int, out_dir: Path, backend: str = "gl") -> dict:
     Everything is encoded in memory and written to temporary names before any file is replaced;
     ``material.json`` is renamed last, so a folder with a material.json holds a complete bake.
     """
+    if backend == "gl":
+        steps = BakeSteps(preset, size, out_dir)
+        for _ in steps:
+            pass
+        return steps.record
     textures = generate(preset, size, backend=backend)
+    files = _encode_files(preset, textures)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    _write_all(out_dir, files)
+    return json.loads(files["material.json"])
+
+
+def _encode_files(preset: Preset, textures: SandTextures):
     files = {}
     for name, image in encode_images(textures).items():
         buffer = io.BytesIO()
@@ -111,6 +124,47 @@ def bake(preset: Preset, size: int, out_dir: Path, backend: str = "gl") -> dict:
         files[name] = buffer.getvalue()
     record = material_record(preset, textures)
     files["material.json"] = (json.dumps(record, indent=2, ensure_ascii=False) + "\n").encode()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    _write_all(out_dir, files)
-    return record
+    return files
+
+
+class BakeSteps:
+    """``bake`` in short steps: iterate to run it; each step yields
+    (fraction done, what comes next). Stopping early (``close()``, or dropping it) writes
+    nothing: the files are written, all at once, only in the last step. ``record`` holds the
+    material record once done. Uses the calling thread's headless context (or ``ctx``).
+    """
+
+    def __init__(self, preset: Preset, size: int, out_dir: Path, ctx=None) -> None:
+        self.record: dict | None = None
+        self._steps = self._run(preset, size, Path(out_dir), ctx)
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> tuple[float, str]:
+        return next(self._steps)
+
+    def close(self) -> None:
+        self._steps.close()
+
+    def _run(self, preset: Preset, size: int, out_dir: Path, ctx):
+        bands = max(1, -(-size // _BAKE_BAND_ROWS))
+        done = 0
+        textures = None
+        progressive = generate_progressive(
+            preset, size, first_size=size, band_rows=_BAKE_BAND_ROWS, ctx=ctx
+        )
+        try:
+            for result in progressive:
+                done += 1
+                yield 0.6 * min(done, bands) / bands, "Generating the grains"
+                textures = result
+        finally:
+            progressive.close()
+        yield 0.6, "Encoding the images"
+        files = _encode_files(preset, textures)
+        yield 0.95, f"Writing {len(files)} files"
+        out_dir.mkdir(parents=True, exist_ok=True)
+        _write_all(out_dir, files)
+        self.record = json.loads(files["material.json"])
+        yield 1.0, "Done"

@@ -30,7 +30,11 @@ def preset_path(text: str | None) -> Path:
 def _cmd_edit(args) -> int:
     from sand_editor.app import run_editor
 
-    return run_editor(preset_path(args.preset))
+    if args.tab is not None and args.screenshot is None:
+        raise CommandError("--tab applies to --screenshot only")
+    return run_editor(
+        preset_path(args.preset), screenshot=args.screenshot, tab=args.tab or "albedo"
+    )
 
 
 def _cmd_bake(args) -> int:
@@ -142,6 +146,13 @@ def _cmd_bench(args) -> int:
         from sand_editor.bench.render import main as bench_render
 
         return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
+    if args.what == "editor":
+        if args.sizes or args.plot:
+            raise CommandError("--sizes and --plot do not apply to the editor benchmark")
+        # Lives with the editor: only the app package may import Qt.
+        from sand_editor.app._bench import main as bench_editor
+
+        return bench_editor(quick=args.quick, json_path=args.json)
     raise CommandError(f"unknown benchmark {args.what!r}")
 
 
@@ -154,6 +165,16 @@ def _parser() -> argparse.ArgumentParser:
 
     edit = sub.add_parser("edit", help="open the editor (the default command)")
     edit.add_argument("preset", nargs="?", help="preset file or bundled preset name")
+    edit.add_argument(
+        "--screenshot",
+        metavar="FILE",
+        help="save a PNG of the window once it is completely drawn, then exit",
+    )
+    edit.add_argument(
+        "--tab",
+        choices=["albedo", "normals", "glint", "layers", "3d"],
+        help="the preview tab shown in the screenshot (default albedo)",
+    )
     edit.set_defaults(run=_cmd_edit)
 
     bake = sub.add_parser("bake", help="write a preset's grain textures as PNG files")
@@ -209,7 +230,7 @@ def _parser() -> argparse.ArgumentParser:
     vr.set_defaults(run=_cmd_vr)
 
     bench = sub.add_parser("bench", help="measure speed against error")
-    bench.add_argument("what", choices=["generator", "render"], help="what to measure")
+    bench.add_argument("what", choices=["generator", "render", "editor"], help="what to measure")
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
     bench.add_argument(
         "--sizes", type=int, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"

@@ -39,21 +39,31 @@ def _layer_palette() -> np.ndarray:
 
 
 LAYER_PALETTE = _layer_palette()
+# Linear [0, 1] in 1/65535 steps to 8-bit sRGB: one table look-up per channel instead of a
+# power per channel, which at 1024² took longer than the generation itself.
+_SRGB_STEPS = 65535
+_SRGB_TABLE = (
+    np.clip(linear_to_srgb(np.linspace(0.0, 1.0, _SRGB_STEPS + 1)), 0.0, 1.0) * 255 + 0.5
+).astype(np.uint8)
+
+
+def _unit_to_8bit(values: np.ndarray, scale: float = 1.0, offset: float = 0.0) -> np.ndarray:
+    encoded = values * np.float32(scale * 255.0) + np.float32(offset * 255.0 + 0.5)
+    return np.clip(encoded, 0.0, 255.0, out=encoded).astype(np.uint8)
 
 
 def channel_rgb(textures: SandTextures, channel: str) -> np.ndarray:
     """8-bit sRGB image (size, size, 3) of one map, as shown on screen."""
     if channel == "Albedo":
-        encoded = linear_to_srgb(textures.albedo)
-    elif channel == "Normals":
-        encoded = textures.normal * 0.5 + 0.5
-    elif channel == "Glint":
-        encoded = np.repeat(textures.glint[..., None], 3, axis=2)
-    elif channel == "Layers":
+        albedo = np.clip(textures.albedo, 0.0, 1.0) * np.float32(_SRGB_STEPS)
+        return _SRGB_TABLE[(albedo + np.float32(0.5)).astype(np.uint16)]
+    if channel == "Normals":
+        return _unit_to_8bit(textures.normal, 0.5, 0.5)
+    if channel == "Glint":
+        return np.repeat(_unit_to_8bit(textures.glint)[..., None], 3, axis=2)
+    if channel == "Layers":
         return LAYER_PALETTE[textures.layer.astype(np.int64) + 1]
-    else:
-        raise ValueError(f"unknown channel {channel!r}; allowed: {', '.join(CHANNELS)}")
-    return (np.clip(encoded, 0.0, 1.0) * 255 + 0.5).astype(np.uint8)
+    raise ValueError(f"unknown channel {channel!r}; allowed: {', '.join(CHANNELS)}")
 
 
 def rgb_to_qimage(rgb: np.ndarray) -> QImage:
@@ -72,7 +82,10 @@ class PreviewPanel(QWidget):
         super().__init__(parent)
         self._model = model
         self.view3d = None  # the 3D panel, made when its tab is first shown
+        self.view3d_state: dict = {}  # settings the 3D panel starts with (remembered ones)
         self._textures: SandTextures | None = None
+        # The latest full tile and its generation parameters, for the 3D view.
+        self._grains: tuple[SandTextures, object] | None = None
         self._image = QImage()
         self._target_size = DEFAULT_PREVIEW_SIZE
 
@@ -143,12 +156,26 @@ class PreviewPanel(QWidget):
             # Made on demand: an OpenGL widget turns the whole window into a GL-composited one,
             # which an editor that never opens this tab does not need to pay for.
             self.view3d = View3DPanel(self._model)
+            self.view3d.apply_state(self.view3d_state)
+            if self._grains is not None:
+                self.view3d.view.set_grains(*self._grains)
             self.pages.addWidget(self.view3d)
         for widget in self._texture_options:
             widget.setVisible(not is_3d)
         self.pages.setCurrentWidget(self.view3d if is_3d else self.scroll)
         if not is_3d:
             self._rebuild_image()
+
+    def set_grains(self, textures: SandTextures, generation) -> None:
+        """A full tile for the 3D view (which uploads it the next time it draws)."""
+        self._grains = (textures, generation)
+        if self.view3d is not None:
+            self.view3d.view.set_grains(textures, generation)
+
+    def release_gl(self) -> None:
+        """Release the 3D view's GL objects (before the window closes)."""
+        if self.view3d is not None:
+            self.view3d.view.cleanup()
 
     @property
     def textures(self) -> SandTextures | None:

@@ -39,11 +39,19 @@ def missing_display(environ: Mapping[str, str] = os.environ, platform: str = sys
     return "neither DISPLAY nor WAYLAND_DISPLAY is set"
 
 
-def run_editor(preset_path: str | Path | None = None) -> int:
+def run_editor(
+    preset_path: str | Path | None = None,
+    screenshot: str | Path | None = None,
+    tab: str = "albedo",
+) -> int:
     """Open the editor on a preset file (default: the bundled ``paper-default``).
 
-    Returns the exit code: 0 after a normal quit, 1 when the preset cannot be loaded,
-    2 when there is no display to open a window on.
+    With ``screenshot``, show ``tab`` (albedo, normals, glint, layers or 3d), wait until it is
+    completely drawn, save the window to that PNG file and quit; the window then uses no
+    remembered settings and remembers none.
+
+    Returns the exit code: 0 after a normal quit (or a saved screenshot), 1 when the preset
+    cannot be loaded or the screenshot not taken, 2 when there is no display.
     """
     problem = missing_display()
     if problem is not None:
@@ -58,13 +66,21 @@ def run_editor(preset_path: str | Path | None = None) -> int:
         print(f"sand-editor: {error}", file=sys.stderr)
         return 1
 
+    from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
 
+    from sand_editor.app._screenshot import TABS, ScreenshotWhenReady
     from sand_editor.app._window import EditorWindow
 
+    if screenshot is not None and tab not in TABS:
+        print(f"sand-editor: unknown tab {tab!r}; allowed: {', '.join(TABS)}", file=sys.stderr)
+        return 1
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("Sand Editor")
     app.setOrganizationName("sand-editor")
-    window = EditorWindow(preset, path=None if bundled else path, source=path)
+    settings = QSettings() if screenshot is None else None
+    window = EditorWindow(preset, path=None if bundled else path, source=path, settings=settings)
+    if screenshot is not None:
+        ScreenshotWhenReady(window, Path(screenshot), tab)
     window.show()
     return app.exec()

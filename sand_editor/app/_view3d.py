@@ -1,16 +1,11 @@
-"""The live 3D preview: the desert in the current preset's sand, drawn by the one renderer
-(``sand_editor.render``) into a QOpenGLWidget, with camera, time-of-day and mode controls."""
+"""The 3D tab: a ``SandView`` of the desert in the current preset's sand, with camera,
+time-of-day and mode controls that follow the preset model."""
 
 from __future__ import annotations
 
 import math
-import time
 
-import moderngl
-import shiboken6
-from PySide6.QtCore import QElapsedTimer, QPointF, Qt, QTimer, Signal
-from PySide6.QtGui import QOffscreenSurface, QOpenGLContext, QSurfaceFormat
-from PySide6.QtOpenGLWidgets import QOpenGLWidget
+from PySide6.QtCore import QElapsedTimer, Qt, QTimer
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -26,248 +21,22 @@ from PySide6.QtWidgets import (
 )
 
 from sand_editor.app._model import PresetModel
-from sand_editor.gl import REQUIRED_GL_VERSION, release_standalone_context
-from sand_editor.preset import Preset
-from sand_editor.render.camera import camera_at_distance
-from sand_editor.render.material import SandMaterial
+from sand_editor.app._sand_view import SandView
+from sand_editor.gl import release_standalone_context
 from sand_editor.render.modes import MODE_HELP, MODES
-from sand_editor.render.renderer import SandRenderer
-from sand_editor.render.sky import advance, sky_at
+from sand_editor.render.sky import advance
 
-TEXTURE_SIZE = 512
+CONTROLS_REFRESH_MS = 250
 MIN_DISTANCE_M = 1e-3
 MAX_DISTANCE_M = 100.0
 DISTANCE_STEPS = 1000  # slider positions across the log range
-WHEEL_FACTOR = 1.15
-DEG_PER_PIXEL = 0.3
 DAY_TICK_MS = 33
 MAX_DAY_SPEED = 86_400
-
-
-def surface_format() -> QSurfaceFormat:
-    fmt = QSurfaceFormat()
-    fmt.setVersion(REQUIRED_GL_VERSION // 100, (REQUIRED_GL_VERSION // 10) % 10)
-    fmt.setProfile(QSurfaceFormat.OpenGLContextProfile.CoreProfile)
-    fmt.setDepthBufferSize(24)
-    return fmt
 
 
 def format_time(time_hours: float) -> str:
     minutes = int(round(time_hours * 60.0)) % (24 * 60 + 1)
     return f"{minutes // 60:02d}:{minutes % 60:02d}"
-
-
-class GLResources:
-    """The view's GL objects, kept apart from the widget: they are released while Qt destroys
-    the widget's context, when the widget itself can no longer be reached from Python."""
-
-    def __init__(self) -> None:
-        self.ctx: moderngl.Context | None = None
-        self.material: SandMaterial | None = None
-        self.renderer: SandRenderer | None = None
-        self.surface: QOffscreenSurface | None = None
-        # The GL error state when the objects went away; None until then.
-        self.release_error: str | None = None
-
-    def release(self, context: QOpenGLContext | None = None) -> None:
-        """Release everything, with ``context`` made current if given."""
-        if self.ctx is None:
-            return
-        if context is not None:
-            release_standalone_context()
-            context.makeCurrent(self.surface)
-        try:
-            for owner in (self.renderer, self.material):
-                if owner is not None:
-                    owner.release()
-            self.release_error = self.ctx.error
-            self.ctx.release()
-        finally:
-            self.ctx = self.material = self.renderer = None
-            if context is not None:
-                context.doneCurrent()
-            if self.surface is not None:
-                self.surface.destroy()
-                self.surface = None
-
-
-class SandView(QOpenGLWidget):
-    """Draws one frame on demand; all GL work happens with this widget's context current.
-
-    Signals
-    -------
-    orbited(float, float)
-        A left-button drag: degrees of heading and pitch to add.
-    zoomed(float)
-        A wheel turn: the factor to multiply the distance by.
-    rendered(dict)
-        A frame was drawn: the renderer's timings plus ``total_ms``.
-    failed(str)
-        The view cannot draw (no suitable context, or initialisation raised).
-    """
-
-    orbited = Signal(float, float)
-    zoomed = Signal(float)
-    rendered = Signal(object)
-    failed = Signal(str)
-
-    def __init__(self, preset: Preset, parent: QWidget | None = None):
-        super().__init__(parent)
-        self.setFormat(surface_format())
-        self.setMinimumSize(160, 100)
-        self.gl = GLResources()
-        self.error: str | None = None
-        self.last_timings: dict | None = None
-        self.frames = 0
-        self.distance_m = 1.0
-        self.pitch_deg = 45.0
-        self.heading_deg = 0.0
-        self.time_hours = 10.0
-        self.mode = "full"
-        self.show_sphere = False
-        self._preset = preset
-        self._drag_from: QPointF | None = None
-
-    @property
-    def ctx(self) -> moderngl.Context | None:
-        return self.gl.ctx
-
-    @property
-    def material(self) -> SandMaterial | None:
-        return self.gl.material
-
-    @property
-    def renderer(self) -> SandRenderer | None:
-        return self.gl.renderer
-
-    # -- state -----------------------------------------------------------------------------------
-
-    def set_view(self, **values) -> None:
-        """Set any of distance_m, pitch_deg, heading_deg, time_hours, mode, show_sphere."""
-        for name, value in values.items():
-            if not hasattr(self, name):
-                raise AttributeError(name)
-            setattr(self, name, value)
-        self.update()
-
-    def set_preset(self, preset: Preset) -> None:
-        self._preset = preset
-        if self.material is None:
-            return  # initializeGL picks it up
-        self._with_context(lambda: self.material.update(preset))
-        self.update()
-
-    def _with_context(self, work) -> None:
-        # Our GLX context cannot be made current while the headless EGL one is.
-        release_standalone_context()
-        self.makeCurrent()
-        try:
-            work()
-        except Exception as error:  # a driver error is shown, not fatal to the editor
-            self._fail(f"3D view: {error}")
-        finally:
-            self.doneCurrent()
-
-    def _fail(self, message: str) -> None:
-        self.error = message
-        self.failed.emit(message)
-
-    # -- GL ----------------------------------------------------------------------------------------
-
-    def initializeGL(self) -> None:
-        fmt = self.context().format()
-        version = fmt.majorVersion() * 100 + fmt.minorVersion() * 10
-        if version < REQUIRED_GL_VERSION:
-            self._fail(
-                f"The 3D view needs OpenGL 3.3; this display offers "
-                f"{fmt.majorVersion()}.{fmt.minorVersion()}."
-            )
-            return
-        gl = self.gl
-        try:
-            gl.ctx = moderngl.create_context()
-            gl.material = SandMaterial(gl.ctx, TEXTURE_SIZE)
-            gl.material.update(self._preset)
-            gl.renderer = SandRenderer(gl.ctx)
-            gl.renderer.set_material(gl.material)
-        except Exception as error:
-            self._fail(f"Cannot start the 3D view: {error}")
-            return
-        # Where the context must be made current while the widget is being destroyed.
-        gl.surface = QOffscreenSurface()
-        gl.surface.setFormat(self.context().format())
-        gl.surface.create()
-        # Not a slot of the widget, nor using the context's wrapper: this runs from their
-        # destructors, when PySide already counts both as deleted; a fresh wrapper of the
-        # context (still valid in C++ until the signal returns) can make it current.
-        address = shiboken6.getCppPointer(self.context())[0]
-        self.context().aboutToBeDestroyed.connect(
-            lambda: gl.release(shiboken6.wrapInstance(address, QOpenGLContext))
-        )
-
-    def paintGL(self) -> None:
-        if self.renderer is None or self.error is not None:
-            return
-        ratio = self.devicePixelRatioF()
-        width = max(1, round(self.width() * ratio))
-        height = max(1, round(self.height() * ratio))
-        terrain = self.renderer.terrain
-        try:
-            camera = camera_at_distance(
-                self.distance_m,
-                self.pitch_deg,
-                width / height,
-                ground_height=lambda x, z: float(terrain.height(x, z)),
-                heading_deg=self.heading_deg,
-            )
-            fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
-            fbo.use()
-            start = time.perf_counter()
-            timings = self.renderer.render(
-                fbo,
-                camera,
-                sky_at(self.time_hours),
-                self.mode,
-                viewport=(0, 0, width, height),
-                show_sphere=self.show_sphere,
-            )
-        except Exception as error:
-            self._fail(f"3D view: {error}")
-            return
-        timings["total_ms"] = (time.perf_counter() - start) * 1e3
-        self.frames += 1
-        self.last_timings = timings
-        self.rendered.emit(timings)
-
-    def cleanup(self) -> None:
-        """Release our GL objects now (the view then stays blank)."""
-        self.gl.release(self.context())
-
-    # -- mouse -------------------------------------------------------------------------------------
-
-    def mousePressEvent(self, event) -> None:
-        if event.button() == Qt.MouseButton.LeftButton:
-            self._drag_from = event.position()
-        super().mousePressEvent(event)
-
-    def mouseMoveEvent(self, event) -> None:
-        if self._drag_from is not None:
-            delta = event.position() - self._drag_from
-            self._drag_from = event.position()
-            self.orbited.emit(delta.x() * DEG_PER_PIXEL, delta.y() * DEG_PER_PIXEL)
-        super().mouseMoveEvent(event)
-
-    def mouseReleaseEvent(self, event) -> None:
-        if event.button() == Qt.MouseButton.LeftButton:
-            self._drag_from = None
-        super().mouseReleaseEvent(event)
-
-    def wheelEvent(self, event) -> None:
-        steps = event.angleDelta().y() / 120.0
-        if steps:
-            # Wheel forward moves closer.
-            self.zoomed.emit(WHEEL_FACTOR ** (-steps))
-        event.accept()
 
 
 class View3DPanel(QWidget):
@@ -350,6 +119,9 @@ class View3DPanel(QWidget):
         layout.addLayout(grid)
         layout.addWidget(self.stack, 1)
 
+        self._timings: dict | None = None
+        self._controls_timer = QTimer(self, singleShot=True, interval=CONTROLS_REFRESH_MS)
+        self._controls_timer.timeout.connect(self._refresh_controls)
         self._clock = QElapsedTimer()
         self.day_timer = QTimer(self, interval=DAY_TICK_MS)
         self.day_timer.timeout.connect(self._tick)
@@ -368,7 +140,7 @@ class View3DPanel(QWidget):
         self.sphere.toggled.connect(lambda on: self.view.set_view(show_sphere=on))
         self.view.orbited.connect(self._orbit)
         self.view.zoomed.connect(lambda factor: self.set_distance(self.view.distance_m * factor))
-        self.view.rendered.connect(self._show_timings)
+        self.view.rendered.connect(self._frame_drawn)
         self.view.failed.connect(self.show_message)
         model.changed.connect(lambda preset, paths: self.view.set_preset(preset))
 
@@ -378,6 +150,37 @@ class View3DPanel(QWidget):
         self.set_time(self.view.time_hours)
 
     # -- controls ----------------------------------------------------------------------------------
+
+    def state(self) -> dict:
+        """Camera, clock, mode and sphere, as ``apply_state`` takes them (for QSettings)."""
+        view = self.view
+        return {
+            "distance_m": view.distance_m,
+            "pitch_deg": view.pitch_deg,
+            "heading_deg": view.heading_deg,
+            "time_hours": view.time_hours,
+            "mode": view.mode,
+            "show_sphere": view.show_sphere,
+            "day_speed": self.day_speed.value(),
+        }
+
+    def apply_state(self, values: dict) -> None:
+        """Set the controls (and so the view) from a ``state()`` dict; unknown or out-of-range
+        values are clamped or left at their current setting."""
+        if "distance_m" in values:
+            self.set_distance(values["distance_m"])
+        if "pitch_deg" in values:
+            self.pitch_slider.setValue(round(min(max(values["pitch_deg"], 1.0), 90.0)))
+        if "heading_deg" in values:
+            self.heading_spin.setValue(int(values["heading_deg"]) % 360)
+        if "time_hours" in values:
+            self.set_time(min(max(values["time_hours"], 0.0), 24.0))
+        if values.get("mode") in MODES:
+            self.mode_combo.setCurrentIndex(MODES.index(values["mode"]))
+        if "show_sphere" in values:
+            self.sphere.setChecked(bool(values["show_sphere"]))
+        if "day_speed" in values:
+            self.day_speed.setValue(int(values["day_speed"]))
 
     def set_distance(self, distance_m: float) -> None:
         distance_m = min(max(float(distance_m), MIN_DISTANCE_M), MAX_DISTANCE_M)
@@ -414,22 +217,49 @@ class View3DPanel(QWidget):
 
     def _orbit(self, heading_delta: float, pitch_delta: float) -> None:
         heading = (self.view.heading_deg + heading_delta) % 360.0
-        self.heading_spin.blockSignals(True)
-        self.heading_spin.setValue(int(heading) % 360)
-        self.heading_spin.blockSignals(False)
-        self.view.set_view(heading_deg=heading)
         pitch = min(max(self.view.pitch_deg + pitch_delta, 1.0), 90.0)
-        self.pitch_slider.blockSignals(True)
-        self.pitch_slider.setValue(round(pitch))
-        self.pitch_slider.blockSignals(False)
-        self.pitch_label.setText(f"{round(pitch)}°")
-        self.view.set_view(pitch_deg=pitch)
+        self.view.set_view(heading_deg=heading, pitch_deg=pitch)
+        self._refresh_controls_soon()
+
+    def _refresh_controls_soon(self) -> None:
+        # Controls that follow a drag or the running clock are redrawn a few times a second,
+        # not for every mouse move or tick: each redraw costs a composition of the window.
+        if not self._controls_timer.isActive():
+            self._controls_timer.start()
+
+    def _refresh_controls(self) -> None:
+        view = self.view
+        for widget, value in (
+            (self.heading_spin, int(view.heading_deg) % 360),
+            (self.pitch_slider, round(view.pitch_deg)),
+            (self.time_slider, round(view.time_hours * 60.0)),
+        ):
+            widget.blockSignals(True)
+            widget.setValue(value)
+            widget.blockSignals(False)
+        self.pitch_label.setText(f"{round(view.pitch_deg)}°")
+        self.time_label.setText(format_time(view.time_hours))
+        if self._timings is not None:
+            self._show_timings(self._timings)
+
+    def _frame_drawn(self, timings: dict) -> None:
+        self._timings = timings
+        if self.view.at_rest:
+            self._refresh_controls()  # the final numbers, at once
+        else:
+            self._refresh_controls_soon()
 
     def _show_timings(self, timings: dict) -> None:
+        if timings["refined"] == 0.0:
+            frame = f"frame {timings['total_ms']:.0f} ms at {timings['scale']:.0%} resolution"
+        elif timings["refined"] < 1.0:
+            frame = f"refining to full resolution: {timings['refined']:.0%}"
+        else:
+            frame = f"full resolution in {timings['refine_ms']:.0f} ms ({timings['bands']} bands)"
         self.status.setText(
-            f"{self.view.mode} · {timings['total_ms']:.1f} ms CPU "
-            f"(sky {timings['sky_ms']:.1f}, surface {timings['surface_ms']:.1f}, "
-            f"post {timings['post_ms']:.1f}) · exposure {timings['exposure']:.2f}"
+            f"{self.view.mode} · {frame} · CPU sky {timings['sky_ms']:.1f}, "
+            f"surface {timings['surface_ms']:.1f}, post {timings['post_ms']:.1f} ms · "
+            f"exposure {timings['exposure']:.2f}"
         )
 
     # -- the running day ---------------------------------------------------------------------------
@@ -444,9 +274,15 @@ class View3DPanel(QWidget):
 
     def _tick(self) -> None:
         seconds = self._clock.restart() / 1000.0
-        self.set_time(advance(self.view.time_hours, seconds, self.day_speed.value()))
+        self.view.set_view(
+            time_hours=advance(self.view.time_hours, seconds, self.day_speed.value())
+        )
+        self._refresh_controls_soon()
 
     def showEvent(self, event) -> None:
+        # Qt makes its GLX contexts current from now on, which libglvnd refuses while a
+        # headless EGL context (a script's, or a test's) is current on this thread.
+        release_standalone_context()
         super().showEvent(event)
         self._update_day_timer()
         # A context that could not be created never reaches initializeGL: say so.

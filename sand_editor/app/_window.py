@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import QSettings, Qt
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import (
     QFileDialog,
+    QInputDialog,
     QLabel,
     QMainWindow,
     QMessageBox,
@@ -16,16 +17,20 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from sand_editor.app._bake import BAKE_SIZES, DEFAULT_BAKE_SIZE, BakeDialog, BakeJob
 from sand_editor.app._controls import ControlsPanel
 from sand_editor.app._model import PresetModel
-from sand_editor.app._preview import PreviewPanel
+from sand_editor.app._preview import CHANNELS, TAB_3D, PreviewPanel
 from sand_editor.app._regenerator import Regenerator
+from sand_editor.app._settings import EditorSettings
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir
 
 _REGENERATING = frozenset(spec.path for spec in FIELDS if spec.regenerates)
 _FILE_FILTER = "Sand presets (*.json);;All files (*)"
+_IMAGE_FILTER = "PNG images (*.png)"
+DEFAULT_SIZE = (1280, 820)
 STATUS_MESSAGE_MS = 6000
 
 
@@ -40,6 +45,9 @@ class EditorWindow(QMainWindow):
         Where Save writes it; None for a new preset or a bundled one (Save asks for a file).
     source
         What Revert reloads, when it differs from ``path`` (a bundled preset).
+    settings
+        Where layout, recent files and 3D view settings are remembered; None remembers
+        nothing (screenshots for the docs look the same on every machine).
     """
 
     def __init__(
@@ -48,9 +56,12 @@ class EditorWindow(QMainWindow):
         path: str | Path | None = None,
         source: str | Path | None = None,
         parent: QWidget | None = None,
+        settings: QSettings | None = None,
     ):
         super().__init__(parent)
-        self.resize(1280, 820)
+        self.resize(*DEFAULT_SIZE)
+        self.setAcceptDrops(True)
+        self.settings = EditorSettings(settings) if settings is not None else None
         self.setStyleSheet((ui_dir() / "editor.qss").read_text(encoding="utf-8"))
         self.model = PresetModel(preset, self)
         self._path = Path(path) if path is not None else None
@@ -62,17 +73,18 @@ class EditorWindow(QMainWindow):
         panel_scroll.setWidgetResizable(True)
         panel_scroll.setMinimumWidth(self.controls.sizeHint().width() + 24)
         self.preview = PreviewPanel(model=self.model)
-        splitter = QSplitter(Qt.Orientation.Horizontal, self)
-        splitter.addWidget(panel_scroll)
-        splitter.addWidget(self.preview)
-        splitter.setStretchFactor(1, 1)
-        self.setCentralWidget(splitter)
+        self.splitter = QSplitter(Qt.Orientation.Horizontal, self)
+        self.splitter.addWidget(panel_scroll)
+        self.splitter.addWidget(self.preview)
+        self.splitter.setStretchFactor(1, 1)
+        self.setCentralWidget(self.splitter)
+        self.bake_dialog: BakeDialog | None = None
 
         self.statistics_label = QLabel("Generating…", objectName="statistics")
         self.statusBar().addPermanentWidget(self.statistics_label)
 
         self.regenerator = Regenerator(self.preview.preview_size, self)
-        self.regenerator.produced.connect(self.preview.show_textures)
+        self.regenerator.produced.connect(self._show_tile)
         self.regenerator.finished.connect(self._show_statistics)
         self.regenerator.failed.connect(self._show_generation_error)
         self.preview.size_changed.connect(self.regenerator.set_size)
@@ -82,6 +94,7 @@ class EditorWindow(QMainWindow):
         self.model.undo_stack.cleanChanged.connect(self._update_title)
         self._build_actions()
         self._update_title()
+        self._restore_settings()
         self.regenerator.request(self.model.preset)
 
     # -- documents -----------------------------------------------------------------------------
@@ -130,6 +143,7 @@ class EditorWindow(QMainWindow):
         self._path = self._source = path
         self.model.undo_stack.setClean()
         self._update_title()
+        self._remember_recent(path)
         self.statusBar().showMessage(f"Saved {path}", STATUS_MESSAGE_MS)
         return True
 
@@ -152,6 +166,12 @@ class EditorWindow(QMainWindow):
 
     def closeEvent(self, event: QCloseEvent) -> None:
         if self.maybe_save():
+            self._save_settings()
+            if self.bake_dialog is not None:
+                self.bake_dialog.cancel()
+            # GL objects go while their context is still whole, not in Qt's teardown at exit.
+            self.preview.release_gl()
+            self.regenerator.shutdown()
             event.accept()
         else:
             event.ignore()
@@ -163,6 +183,8 @@ class EditorWindow(QMainWindow):
             QMessageBox.critical(self, "Cannot open preset", str(error))
             return False
         self._set_document(preset, path=save_path, source=path)
+        if save_path is not None:
+            self._remember_recent(path)
         self.statusBar().showMessage(f"Opened {path}", STATUS_MESSAGE_MS)
         return True
 
@@ -188,7 +210,16 @@ class EditorWindow(QMainWindow):
         save = self._action("&Save", self.save, key.Save, "Save to the current file")
         save_as = self._action("Save &As…", self.save_as, key.SaveAs, "Save to a new file")
         self.revert_action = self._action("&Revert", self._ask_revert, tip="Reload the file")
-        quit_ = self._action("&Quit", self.close, key.Quit)
+        self.bake_action = self._action(
+            "&Bake textures…", self._ask_bake, "Ctrl+B", "Write the grain textures as PNG files"
+        )
+        self.screenshot_action = self._action(
+            "Save scree&nshot…", self._ask_screenshot, "Ctrl+Shift+S", "Save the window as PNG"
+        )
+        # Ctrl+Shift+S is Save As's shortcut where the platform has one: use F12 there.
+        if QKeySequence("Ctrl+Shift+S") in save_as.shortcuts():
+            self.screenshot_action.setShortcut(QKeySequence("F12"))
+        quit_ = self._action("&Quit", self.close, key.Quit, "Close the editor")
 
         stack = self.model.undo_stack
         self.undo_action = stack.createUndoAction(self, "&Undo")
@@ -198,6 +229,9 @@ class EditorWindow(QMainWindow):
 
         file_menu = self.menuBar().addMenu("&File")
         file_menu.addActions([new, open_])
+        self.recent_menu = file_menu.addMenu("Open &recent")
+        self.recent_menu.aboutToShow.connect(self._fill_recent_menu)
+        self._fill_recent_menu()
         bundled = file_menu.addMenu("Open &bundled preset")
         for preset_file in sorted(presets_dir().glob("*.json")):
             bundled.addAction(
@@ -206,15 +240,49 @@ class EditorWindow(QMainWindow):
         file_menu.addSeparator()
         file_menu.addActions([save, save_as, self.revert_action])
         file_menu.addSeparator()
+        file_menu.addActions([self.bake_action, self.screenshot_action])
+        file_menu.addSeparator()
         file_menu.addAction(quit_)
         edit_menu = self.menuBar().addMenu("&Edit")
         edit_menu.addActions([self.undo_action, self.redo_action])
+        # The View menu lists the preview's tabs; add_view_action puts more views here.
+        self.view_menu = self.menuBar().addMenu("&View")
+        for index, name in enumerate((*CHANNELS, TAB_3D)):
+            action = self._action(
+                f"&{index + 1} {name}",
+                lambda _=False, i=index: self.preview.tabs.setCurrentIndex(i),
+                f"Ctrl+{index + 1}",
+                f"Show the {name} tab",
+            )
+            self.view_menu.addAction(action)
+            self.preview.tabs.setTabToolTip(index, _with_shortcut(f"Show {name}", action))
 
-        toolbar = self.addToolBar("File")
-        toolbar.setObjectName("file-toolbar")
-        toolbar.addActions([new, open_, save])
-        toolbar.addSeparator()
-        toolbar.addActions([self.undo_action, self.redo_action])
+        self.toolbar = self.addToolBar("File")
+        self.toolbar.setObjectName("file-toolbar")
+        self.toolbar.addActions([new, open_, save])
+        self.toolbar.addSeparator()
+        self.toolbar.addActions([self.undo_action, self.redo_action])
+        self.toolbar.addSeparator()
+        self.toolbar.addActions([self.bake_action])
+        for action in (new, open_, save, save_as, self.revert_action, self.bake_action):
+            action.setToolTip(_with_shortcut(action.statusTip(), action))
+        for action in (self.screenshot_action, quit_, self.undo_action, self.redo_action):
+            action.setToolTip(_with_shortcut(action.text().replace("&", ""), action))
+        # Undo and redo rename themselves after each edit ("Undo Change Seed").
+        stack.undoTextChanged.connect(self._update_undo_tips)
+        stack.redoTextChanged.connect(self._update_undo_tips)
+
+    def _update_undo_tips(self) -> None:
+        for action in (self.undo_action, self.redo_action):
+            action.setToolTip(_with_shortcut(action.text().replace("&", ""), action))
+
+    def add_view_action(self, action: QAction) -> None:
+        """Offer another way to look at the preset (a menu entry under View, and a button)."""
+        action.setToolTip(_with_shortcut(action.statusTip() or action.text(), action))
+        self.view_menu.addSeparator()
+        self.view_menu.addAction(action)
+        self.toolbar.addSeparator()
+        self.toolbar.addAction(action)
 
     def _ask_new(self) -> None:
         if self.maybe_save():
@@ -244,6 +312,136 @@ class EditorWindow(QMainWindow):
         if answer == QMessageBox.StandardButton.Discard:
             self.revert()
 
+    # -- recent files, drops ---------------------------------------------------------------------
+
+    def _remember_recent(self, path: Path) -> None:
+        if self.settings is not None:
+            self.settings.add_recent(path)
+            self._fill_recent_menu()
+
+    def _fill_recent_menu(self) -> None:
+        self.recent_menu.clear()
+        recent = self.settings.recent_files() if self.settings is not None else []
+        for path in recent:
+            self.recent_menu.addAction(
+                path.name, lambda _=False, p=path: self._ask_open_path(p)
+            ).setStatusTip(str(path))
+        if recent:
+            self.recent_menu.addSeparator()
+            self.recent_menu.addAction("Clear list", self._clear_recent)
+        self.recent_menu.setEnabled(bool(recent))
+
+    def _clear_recent(self) -> None:
+        if self.settings is not None:
+            self.settings.clear_recent()
+        self._fill_recent_menu()
+
+    def _ask_open_path(self, path: Path) -> None:
+        if self.maybe_save():
+            self.open_path(path)
+
+    def dragEnterEvent(self, event) -> None:
+        if _dropped_preset(event.mimeData()) is not None:
+            event.acceptProposedAction()
+
+    def dropEvent(self, event) -> None:
+        path = _dropped_preset(event.mimeData())
+        if path is not None:
+            event.acceptProposedAction()
+            self._ask_open_path(path)
+
+    # -- bake, screenshots -----------------------------------------------------------------------
+
+    def _ask_bake(self) -> None:
+        start = str(self._path.parent if self._path else Path.cwd())
+        folder = QFileDialog.getExistingDirectory(self, "Bake textures into folder", start)
+        if not folder:
+            return
+        sizes = [str(size) for size in BAKE_SIZES]
+        size, ok = QInputDialog.getItem(
+            self,
+            "Bake textures",
+            "Texture size (pixels):",
+            sizes,
+            sizes.index(str(DEFAULT_BAKE_SIZE)),
+            False,
+        )
+        if ok:
+            self.bake_to(Path(folder), int(size))
+
+    def bake_to(self, folder: Path, size: int) -> BakeDialog:
+        """Start baking the current preset into ``folder``; returns the open progress dialog."""
+        job = BakeJob(self.model.preset, size, Path(folder), self)
+        dialog = BakeDialog(job, self)
+        dialog.finished.connect(lambda: self._bake_done(dialog))
+        self.bake_dialog = dialog
+        self.bake_action.setEnabled(False)
+        dialog.open()
+        job.start()
+        return dialog
+
+    def _bake_done(self, dialog: BakeDialog) -> None:
+        self.bake_dialog = None
+        self.bake_action.setEnabled(True)
+        if dialog.error is not None:
+            QMessageBox.critical(self, "Cannot bake", dialog.error)
+        elif dialog.result is not None:
+            self.statusBar().showMessage(
+                f"Baked {dialog.job.size}² textures into {dialog.job.out_dir}", STATUS_MESSAGE_MS
+            )
+        else:
+            self.statusBar().showMessage("Bake cancelled; nothing written", STATUS_MESSAGE_MS)
+
+    def _ask_screenshot(self) -> None:
+        start = str(Path.cwd() / f"{self.model.preset.name}.png")
+        chosen, _ = QFileDialog.getSaveFileName(self, "Save screenshot", start, _IMAGE_FILTER)
+        if chosen:
+            path = Path(chosen) if Path(chosen).suffix else Path(chosen).with_suffix(".png")
+            if self.save_screenshot(path):
+                self.statusBar().showMessage(f"Saved {path}", STATUS_MESSAGE_MS)
+            else:
+                QMessageBox.critical(self, "Cannot save screenshot", f"Cannot write {path}.")
+
+    def save_screenshot(self, path: str | Path) -> bool:
+        """Write the window as shown to a PNG file (atomically); False if it cannot be written."""
+        path = Path(path)
+        temporary = path.with_name(f".{path.name}.partial")
+        if not self.grab().save(str(temporary), "PNG"):
+            temporary.unlink(missing_ok=True)
+            return False
+        temporary.replace(path)
+        return True
+
+    # -- settings --------------------------------------------------------------------------------
+
+    def _restore_settings(self) -> None:
+        if self.settings is None:
+            return
+        layout = self.settings.layout()
+        # The tab first: the 3D tab's controls widen the window's minimum size.
+        self.preview.view3d_state = self.settings.view3d()
+        if layout["tab"] is not None and 0 <= layout["tab"] < self.preview.tabs.count():
+            self.preview.tabs.setCurrentIndex(layout["tab"])
+        if layout["geometry"] is not None:
+            self.restoreGeometry(layout["geometry"])
+        if layout["state"] is not None:
+            self.restoreState(layout["state"])
+        if layout["splitter"] is not None:
+            self.splitter.restoreState(layout["splitter"])
+
+    def _save_settings(self) -> None:
+        if self.settings is None:
+            return
+        self.settings.save_layout(
+            self.saveGeometry(),
+            self.saveState(),
+            self.splitter.saveState(),
+            self.preview.tabs.currentIndex(),
+        )
+        if self.preview.view3d is not None:
+            self.settings.save_view3d(self.preview.view3d.state())
+        self.settings.sync()
+
     # -- reactions -----------------------------------------------------------------------------
 
     def _on_preset_changed(self, preset: Preset, paths: frozenset[str]) -> None:
@@ -264,8 +462,13 @@ class EditorWindow(QMainWindow):
         self.setWindowModified(modified)
         self.revert_action.setEnabled(modified)
 
+    def _show_tile(self, textures: SandTextures, final: bool) -> None:
+        self.preview.show_textures(textures, final)
+        if final:
+            self.preview.set_grains(textures, self.regenerator.generation)
+
     def _show_statistics(self, textures: SandTextures, seconds: float) -> None:
-        stats = textures.statistics(self.model.preset.generation.layers)
+        stats = self.regenerator.statistics
         coverage = stats["coverage_per_layer"]
         top = f"{coverage[0]:.1%}" if coverage else "—"
         self.statistics_label.setText(
@@ -278,3 +481,18 @@ class EditorWindow(QMainWindow):
         self.preview.show_message(message)
         self.statistics_label.setText("Generation failed")
         self.statusBar().showMessage(message)
+
+
+def _with_shortcut(text: str, action: QAction) -> str:
+    shortcut = action.shortcut().toString(QKeySequence.SequenceFormat.NativeText)
+    return f"{text} ({shortcut})" if shortcut else text
+
+
+def _dropped_preset(mime) -> Path | None:
+    """The first local .json file among dropped URLs, or None."""
+    for url in mime.urls() if mime.hasUrls() else []:
+        if url.isLocalFile():
+            path = Path(url.toLocalFile())
+            if path.suffix.lower() == ".json" and path.is_file():
+                return path
+    return None

@@ -11,7 +11,8 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from sand_editor.generator import check_size, gl_generator
+from sand_editor.generator import SandTextures, check_size, gl_generator
+from sand_editor.generator._gl import GpuSandTextures
 from sand_editor.generator.noise import MAX_LAYERS, NoiseConstants, colour_thresholds
 from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
 from sand_editor.preset import Preset
@@ -144,6 +145,39 @@ class SandMaterial:
             self._build_textures(preset)
             self._built_for = build_key
         self.preset = preset
+
+    def set_grains(self, preset: Preset, textures: SandTextures) -> None:
+        """Use grains generated elsewhere (read back from another context) for ``preset``.
+
+        ``textures`` must be ``preset.generation`` at ``texture_size``. They are uploaded and the
+        glint moments rebuilt from them; ``update`` then keeps them for as long as the
+        generation parameters stay the same, so this context never generates grains itself.
+        """
+        n = self.texture_size
+        if textures.size != n:
+            raise ValueError(f"set_grains: textures are {textures.size}², the material is {n}²")
+        normal_height = np.empty((n, n, 4), dtype=np.float32)
+        normal_height[..., :3] = textures.normal
+        normal_height[..., 3] = textures.height
+        layer_grain = np.empty((n, n, 2), dtype=np.uint32)
+        layer_grain[..., 0] = textures.layer.astype(np.int32) + 1
+        layer_grain[..., 1] = textures.grain_id
+        if self._grains is None:
+            normal_height_texture = self.ctx.texture((n, n), 4, dtype="f4")
+            layer_grain_texture = self.ctx.texture((n, n), 2, dtype="u4")
+            for texture in (normal_height_texture, layer_grain_texture):
+                texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self._grains = GpuSandTextures(
+                n,
+                normal_height_texture,
+                layer_grain_texture,
+                self.ctx.framebuffer([normal_height_texture, layer_grain_texture]),
+            )
+        self._grains.normal_height.write(normal_height)
+        self._grains.layer_grain.write(layer_grain)
+        self._built_for = None
+        self.preset = preset  # the grains now hold its generation: update() keeps them
+        self.update(preset)
 
     def _build_textures(self, preset: Preset) -> None:
         nc = NoiseConstants.from_generation(preset.generation)

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
 from sand_editor.preset import Preset
@@ -10,6 +15,29 @@ from sand_editor.resources import bundled_preset
 # The first full tile needs the EGL context and shader compile; later ones take milliseconds.
 FIRST_PREVIEW_TIMEOUT_MS = 20_000
 PREVIEW_TIMEOUT_MS = 10_000
+REPO = Path(__file__).resolve().parents[2]
+
+
+def run_python(*args: str, timeout: float = 120, env: dict | None = None):
+    """``python ARGS`` in a child process on this checkout (``-m sand_editor …``, ``-c …``)."""
+    return subprocess.run(
+        [sys.executable, *args],
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO), **(env or {})},
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def show_and_wait_for_tile(editor, qtbot) -> None:
+    """Show the window and wait for its first full-size tile."""
+    editor.show()
+    qtbot.waitExposed(editor)
+    qtbot.waitUntil(
+        lambda: not editor.regenerator.busy and editor.preview.textures is not None,
+        timeout=FIRST_PREVIEW_TIMEOUT_MS,
+    )
 
 
 @pytest.fixture
@@ -25,12 +53,7 @@ def window(qtbot, default_preset):
     editor = EditorWindow(default_preset, source=bundled_preset("paper-default"))
     # Closing asks about unsaved changes; the test's edits are meant to be thrown away.
     qtbot.addWidget(editor, before_close_func=lambda w: w.model.undo_stack.setClean())
-    editor.show()
-    qtbot.waitExposed(editor)
-    qtbot.waitUntil(
-        lambda: not editor.regenerator.busy and editor.preview.textures is not None,
-        timeout=FIRST_PREVIEW_TIMEOUT_MS,
-    )
+    show_and_wait_for_tile(editor, qtbot)
     assert editor.preview.textures.size == editor.preview.preview_size, "generation failed"
     return editor
 

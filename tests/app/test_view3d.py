@@ -44,12 +44,12 @@ def frame(panel) -> np.ndarray:
     return image
 
 
-def test_the_view_initialises_and_paints_the_desert(panel):
+def test_the_view_initialises_and_paints_the_desert(panel, qtbot):
     image = frame(panel)
     assert image.shape[:2] == (VIEW_SIZE[1], VIEW_SIZE[0])
     assert image.max() > 40, "all black"
     assert image.reshape(-1, 3).std(axis=0).max() > 1.0, "a single flat colour"
-    assert "ms" in panel.status.text()
+    qtbot.waitUntil(lambda: " ms" in panel.status.text(), timeout=TIMEOUT_MS)
     assert panel.mode_combo.count() == len(MODES)
 
 
@@ -65,22 +65,22 @@ def test_night_is_darker_than_noon(panel):
 
 
 def test_shading_changes_keep_the_grains_and_generation_changes_replace_them(panel, qtbot):
-    material = panel.view.material
-    grains = material._grains
-    frames = panel.view.frames
+    view = panel.view
+    material = view.material
+    uploads = view.grain_uploads
+    frames = view.frames
 
     panel.model.edit("shading.glint_mu", 1.0)
-    qtbot.waitUntil(lambda: panel.view.frames > frames, timeout=TIMEOUT_MS)
-    assert material._grains is grains
+    qtbot.waitUntil(lambda: view.frames > frames, timeout=TIMEOUT_MS)
+    assert view.grain_uploads == uploads
     assert material.preset.shading.glint_mu == 1.0
 
-    frames = panel.view.frames
     panel.model.edit("generation.seed", panel.model.preset.generation.seed + 1)
-    qtbot.waitUntil(lambda: panel.view.frames > frames, timeout=TIMEOUT_MS)
-    assert material._grains is not grains
-    assert material.preset == panel.model.preset
-    assert panel.view.ctx.error == "GL_NO_ERROR"
-    # The texture preview still regenerates in its own context alongside the view.
+    qtbot.waitUntil(lambda: view.grain_uploads > uploads, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: view.material.preset == panel.model.preset, timeout=TIMEOUT_MS)
+    assert view.grains_generation == panel.model.preset.generation
+    assert view.ctx.error == "GL_NO_ERROR"
+    # The texture preview shows the same tile the view took.
     qtbot.waitUntil(lambda: not panel.window().regenerator.busy, timeout=TIMEOUT_MS)
     assert panel.window().preview.textures.size == panel.window().preview.preview_size
 
@@ -118,7 +118,11 @@ def test_wheel_and_drag_move_the_camera(panel, qtbot):
     qtbot.mouseRelease(view, Qt.MouseButton.LeftButton, pos=QPoint(60, 30))
     assert view.heading_deg != 0.0
     assert view.pitch_deg < 45.0
-    assert panel.heading_spin.value() == int(view.heading_deg) % 360
+    # The controls follow a drag a few times a second.
+    qtbot.waitUntil(
+        lambda: panel.heading_spin.value() == int(view.heading_deg) % 360, timeout=TIMEOUT_MS
+    )
+    assert panel.pitch_slider.value() == round(view.pitch_deg)
 
 
 def test_a_running_day_advances_the_clock_only_while_shown(panel, qtbot):
@@ -126,6 +130,8 @@ def test_a_running_day_advances_the_clock_only_while_shown(panel, qtbot):
     panel.day_speed.setValue(3600)
     assert panel.day_timer.isActive()
     qtbot.waitUntil(lambda: panel.view.time_hours > 6.05, timeout=5_000)
+    qtbot.waitUntil(lambda: panel.time_slider.value() > 6 * 60, timeout=5_000)
+    assert panel.time_label.text() != "06:00"
     panel.window().preview.tabs.setCurrentIndex(0)
     assert not panel.day_timer.isActive()
     panel.day_speed.setValue(0)

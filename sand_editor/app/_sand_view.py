@@ -1,0 +1,481 @@
+"""The 3D view's GL widget: the desert drawn by the one renderer (``sand_editor.render``) into a
+QOpenGLWidget, at reduced resolution while anything changes and refined in bands at rest."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import moderngl
+import numpy as np
+import shiboken6
+from PySide6.QtCore import QPointF, Qt, QTimer, Signal
+from PySide6.QtGui import QOffscreenSurface, QOpenGLContext, QSurfaceFormat
+from PySide6.QtOpenGLWidgets import QOpenGLWidget
+from PySide6.QtWidgets import QWidget
+
+from sand_editor.generator import SandTextures
+from sand_editor.gl import (
+    REQUIRED_GL_VERSION,
+    draw_fullscreen,
+    drawing_into,
+    fullscreen_program,
+    release_standalone_context,
+)
+from sand_editor.preset import Preset
+from sand_editor.render.camera import camera_at_distance
+from sand_editor.render.material import SandMaterial
+from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.sky import sky_at
+
+# Adaptive resolution: while the view moves, frames are drawn at a fraction of the widget's
+# pixels, chosen so a frame takes about FRAME_BUDGET_MS; SETTLE_MS after the last change, one
+# frame at full resolution.
+FRAME_BUDGET_MS = 25.0
+MIN_SCALE = 0.08
+MIN_BAND_ROWS = 8
+MAX_MOVING_SCALE = 0.75
+SETTLE_MS = 300
+WHEEL_FACTOR = 1.15
+DEG_PER_PIXEL = 0.3
+
+
+def surface_format() -> QSurfaceFormat:
+    fmt = QSurfaceFormat()
+    fmt.setVersion(REQUIRED_GL_VERSION // 100, (REQUIRED_GL_VERSION // 10) % 10)
+    fmt.setProfile(QSurfaceFormat.OpenGLContextProfile.CoreProfile)
+    fmt.setDepthBufferSize(24)
+    return fmt
+
+
+class GLResources:
+    """The view's GL objects, kept apart from the widget: they are released while Qt destroys
+    the widget's context, when the widget itself can no longer be reached from Python."""
+
+    def __init__(self) -> None:
+        self.ctx: moderngl.Context | None = None
+        self.material: SandMaterial | None = None
+        self.renderer: SandRenderer | None = None
+        self.surface: QOffscreenSurface | None = None
+        # The reduced-resolution frame, the full one being refined, and the pass that draws
+        # them onto the widget.
+        self.targets: dict[str, moderngl.Framebuffer] = {}
+        self.upscale: moderngl.Program | None = None
+        # The GL error state when the objects went away; None until then.
+        self.release_error: str | None = None
+
+    def release(self, context: QOpenGLContext | None = None) -> None:
+        """Release everything, with ``context`` made current if given."""
+        if self.ctx is None:
+            return
+        if context is not None and not shiboken6.isValid(self.surface):
+            # Nothing left to make current: the objects go with the context itself.
+            self.ctx = self.material = self.renderer = self.surface = None
+            self.targets, self.upscale = {}, None
+            return
+        if context is not None:
+            release_standalone_context()
+            context.makeCurrent(self.surface)
+        try:
+            for owner in (self.renderer, self.material):
+                if owner is not None:
+                    owner.release()
+            for name in list(self.targets):
+                self.release_target(name)
+            if self.upscale is not None:
+                self.upscale.release()
+            self.release_error = self.ctx.error
+            self.ctx.release()
+        finally:
+            self.ctx = self.material = self.renderer = self.upscale = None
+            if context is not None:
+                context.doneCurrent()
+            if self.surface is not None and shiboken6.isValid(self.surface):
+                self.surface.destroy()
+            self.surface = None
+
+    def target(self, name: str, width: int, height: int) -> moderngl.Framebuffer:
+        """An offscreen colour target of the view, kept until its size changes."""
+        current = self.targets.get(name)
+        if current is None or current.size != (width, height):
+            self.release_target(name)
+            texture = self.ctx.texture((width, height), 4)
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self.targets[name] = self.ctx.framebuffer([texture])
+        return self.targets[name]
+
+    def release_target(self, name: str) -> None:
+        framebuffer = self.targets.pop(name, None)
+        if framebuffer is not None:
+            for texture in framebuffer.color_attachments:
+                texture.release()
+            framebuffer.release()
+
+
+class SandView(QOpenGLWidget):
+    """Draws one frame on demand; all GL work happens with this widget's context current.
+
+    The grains come from the editor's one generation (``set_grains``); the view uploads them
+    the next time it draws, so a hidden view does no work for an edit. While the camera, the
+    clock or the preset is changing, frames are drawn at reduced resolution (``scale``), and
+    ``SETTLE_MS`` after the last change once more at full resolution.
+
+    Signals
+    -------
+    orbited(float, float)
+        A left-button drag: degrees of heading and pitch to add.
+    zoomed(float)
+        A wheel turn: the factor to multiply the distance by.
+    rendered(dict)
+        A frame was drawn: the renderer's timings plus ``total_ms`` (CPU and GPU, the frame
+        finished) and ``scale`` (the fraction of the widget's pixels along each side).
+    failed(str)
+        The view cannot draw (no suitable context, or initialisation raised).
+    """
+
+    orbited = Signal(float, float)
+    zoomed = Signal(float)
+    rendered = Signal(object)
+    failed = Signal(str)
+
+    def __init__(self, preset: Preset, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.setFormat(surface_format())
+        self.setMinimumSize(160, 100)
+        self.gl = GLResources()
+        self.error: str | None = None
+        self.last_timings: dict | None = None
+        self.frames = 0
+        self.full_frames = 0  # frames drawn at full resolution
+        self.grain_uploads = 0  # tiles uploaded into the material
+        self.distance_m = 1.0
+        self.pitch_deg = 45.0
+        self.heading_deg = 0.0
+        self.time_hours = 10.0
+        self.mode = "full"
+        self.show_sphere = False
+        self.moving_scale = 0.5
+        self._preset = preset
+        self._pending_grains: tuple[SandTextures, object] | None = None
+        self._grains_generation = None  # generation parameters of the uploaded grains
+        self._material_stale = True
+        self._moving = False
+        self._refined_rows = 0  # rows of the full-resolution frame drawn since the last change
+        self._refined_size = (0, 0)
+        self._pixel_ms = 0.002  # what a pixel costs, measured on every frame
+        self._refine_ms, self._bands = 0.0, 0
+        self._frame_end = 0.0
+        self._frame_ms = 0.0
+        self._frame_timer = QTimer(self, singleShot=True)
+        self._frame_timer.timeout.connect(self.update)
+        self._settle = QTimer(self, singleShot=True, interval=SETTLE_MS)
+        self._settle.timeout.connect(self._settled)
+        self._drag_from: QPointF | None = None
+
+    @property
+    def ctx(self) -> moderngl.Context | None:
+        return self.gl.ctx
+
+    @property
+    def material(self) -> SandMaterial | None:
+        return self.gl.material
+
+    @property
+    def renderer(self) -> SandRenderer | None:
+        return self.gl.renderer
+
+    @property
+    def grains_generation(self):
+        """The generation parameters of the grains the view draws with (None before any)."""
+        return self._grains_generation
+
+    @property
+    def at_rest(self) -> bool:
+        """Nothing is changing and the full-resolution frame is complete."""
+        return (
+            not self._moving
+            and self.last_timings is not None
+            and self.last_timings["refined"] == 1.0
+        )
+
+    # -- state -----------------------------------------------------------------------------------
+
+    def set_view(self, **values) -> None:
+        """Set any of distance_m, pitch_deg, heading_deg, time_hours, mode, show_sphere."""
+        for name, value in values.items():
+            if not hasattr(self, name):
+                raise AttributeError(name)
+            setattr(self, name, value)
+        self.changing()
+
+    def set_preset(self, preset: Preset) -> None:
+        self._preset = preset
+        self._material_stale = True
+        self.changing()
+
+    def set_grains(self, textures: SandTextures, generation) -> None:
+        """A full tile of ``generation`` from the editor's generation, uploaded when next drawn."""
+        self._pending_grains = (textures, generation)
+        self._material_stale = True
+        self.changing()
+
+    def changing(self) -> None:
+        """Something in view changes: draw at reduced resolution until it settles."""
+        self._moving = True
+        self._refined_rows = 0
+        self._settle.start()
+        self._request_frame()
+
+    def _request_frame(self) -> None:
+        # After a frame the event loop gets at least as long again to itself: input and
+        # timers wait for at most one frame, never for a queue of them.
+        wait_ms = (self._frame_end + self._frame_ms / 1e3 - time.perf_counter()) * 1e3
+        if wait_ms <= 0:
+            self.update()
+        elif not self._frame_timer.isActive():
+            self._frame_timer.start(math.ceil(wait_ms))
+
+    def _settled(self) -> None:
+        self._moving = False
+        self._request_frame()
+
+    def _fail(self, message: str) -> None:
+        self.error = message
+        self.failed.emit(message)
+
+    # -- GL ----------------------------------------------------------------------------------------
+
+    def initializeGL(self) -> None:
+        fmt = self.context().format()
+        version = fmt.majorVersion() * 100 + fmt.minorVersion() * 10
+        if version < REQUIRED_GL_VERSION:
+            self._fail(
+                f"The 3D view needs OpenGL 3.3; this display offers "
+                f"{fmt.majorVersion()}.{fmt.minorVersion()}."
+            )
+            return
+        release_standalone_context()  # Qt's context and an EGL one cannot both be current
+        gl = self.gl
+        try:
+            gl.ctx = moderngl.create_context()
+            gl.renderer = SandRenderer(gl.ctx)
+            gl.upscale = fullscreen_program(gl.ctx, "upscale.frag")
+        except Exception as error:
+            self._fail(f"Cannot start the 3D view: {error}")
+            return
+        # Where the context must be made current while the widget is being destroyed. Owned
+        # by the widget, so it outlives the context's destruction (the widget's children go
+        # last), whatever Python collects first at exit.
+        gl.surface = QOffscreenSurface(None, self)
+        gl.surface.setFormat(self.context().format())
+        gl.surface.create()
+        # Not a slot of the widget, nor using the context's wrapper: this runs from their
+        # destructors, when PySide already counts both as deleted; a fresh wrapper of the
+        # context (still valid in C++ until the signal returns) can make it current.
+        address = shiboken6.getCppPointer(self.context())[0]
+        self.context().aboutToBeDestroyed.connect(
+            lambda: gl.release(shiboken6.wrapInstance(address, QOpenGLContext))
+        )
+
+    def _sync_material(self) -> None:
+        """Upload a new tile, or follow a shading change, in the material (context current)."""
+        gl = self.gl
+        # Qt leaves its own state behind (blending, for one): the material's passes start
+        # from none.
+        gl.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        if self._pending_grains is not None:
+            textures, generation = self._pending_grains
+            self._pending_grains = None
+            if gl.material is None or gl.material.texture_size != textures.size:
+                if gl.material is not None:
+                    gl.material.release()
+                gl.material = SandMaterial(gl.ctx, textures.size)
+                gl.renderer.set_material(gl.material)
+            self._grains_generation = generation
+            gl.material.set_grains(self._material_preset(), textures)
+            self.grain_uploads += 1
+        elif self._material_stale and gl.material is not None:
+            gl.material.update(self._material_preset())
+        self._material_stale = False
+
+    def _material_preset(self) -> Preset:
+        # The shading of the current preset on the grains the view has: a generation edit
+        # shows once its tile arrives, and the material never generates grains itself.
+        if self._preset.generation == self._grains_generation:
+            return self._preset
+        return dataclasses.replace(self._preset, generation=self._grains_generation)
+
+    def paintGL(self) -> None:
+        if self.renderer is None or self.error is not None:
+            return
+        start = time.perf_counter()
+        try:
+            self._sync_material()
+        except Exception as error:  # a driver error is shown, not fatal to the editor
+            self._fail(f"3D view: {error}")
+            return
+        if self.material is None:
+            return  # the first tile is still being generated
+        ratio = self.devicePixelRatioF()
+        size = (max(1, round(self.width() * ratio)), max(1, round(self.height() * ratio)))
+        try:
+            screen = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
+            camera = self._camera(size)
+            timings = None
+            fresh = self._refined_rows == 0 or size != self._refined_size
+            if self._moving or fresh or "moving" not in self.gl.targets:
+                timings = self._draw_moving(camera, size)
+                self._refined_rows, self._refined_size = 0, size
+            if not self._moving:
+                timings = self._refine(camera, size) or timings
+            self._show(screen, size)
+            # The frame's whole cost, not only the CPU's share of it.
+            self.ctx.finish()
+        except Exception as error:
+            self._fail(f"3D view: {error}")
+            return
+        if timings is None:
+            return  # an expose: the finished frame shown again
+        self._frame_end = time.perf_counter()
+        self._frame_ms = timings["total_ms"] = (self._frame_end - start) * 1e3
+        if timings["scale"] < 1.0:
+            self._adapt_scale(timings["total_ms"], timings["scale"])
+        self.frames += 1
+        self.full_frames += timings["refined"] == 1.0
+        self.last_timings = timings
+        self.rendered.emit(timings)
+        if timings["refined"] < 1.0 and not self._moving:
+            self._request_frame()  # the next band
+
+    def _camera(self, size: tuple[int, int]):
+        terrain = self.renderer.terrain
+        return camera_at_distance(
+            self.distance_m,
+            self.pitch_deg,
+            size[0] / size[1],
+            ground_height=lambda x, z: float(terrain.height(x, z)),
+            heading_deg=self.heading_deg,
+        )
+
+    def _render(self, target, camera, viewport) -> dict:
+        return self.renderer.render(
+            target,
+            camera,
+            sky_at(self.time_hours),
+            self.mode,
+            viewport=viewport,
+            show_sphere=self.show_sphere,
+        )
+
+    def _draw_moving(self, camera, size: tuple[int, int]) -> dict:
+        scale = self.moving_scale
+        low = (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
+        start = time.perf_counter()
+        timings = self._render(self.gl.target("moving", *low), camera, (0, 0, *low))
+        self.ctx.finish()
+        self._pixel_ms = (time.perf_counter() - start) * 1e3 / (low[0] * low[1])
+        timings.update(scale=scale, refined=0.0)
+        return timings
+
+    def _refine(self, camera, size: tuple[int, int]) -> dict | None:
+        """Draw the next band of rows of the full-resolution frame; None when it is complete.
+
+        Each band is a frame of its own through the matching slice of the camera's frustum,
+        sized to take about ``FRAME_BUDGET_MS``, so the event loop runs between bands.
+        """
+        width, height = size
+        full = self.gl.target("full", width, height)
+        if self._refined_rows >= height:
+            return None
+        rows = int(FRAME_BUDGET_MS / max(self._pixel_ms * width, 1e-6))
+        rows = min(max(rows, MIN_BAND_ROWS), height - self._refined_rows)
+        first = self._refined_rows
+        if first == 0:
+            self._refine_ms, self._bands = 0.0, 0
+        band_camera = _band_camera(camera, first, first + rows, height)
+        start = time.perf_counter()
+        timings = self._render(full, band_camera, (0, first, width, rows))
+        self.ctx.finish()
+        self._pixel_ms = (time.perf_counter() - start) * 1e3 / (width * rows)
+        self._refined_rows = first + rows
+        self._refine_ms += (time.perf_counter() - start) * 1e3
+        self._bands += 1
+        timings.update(
+            scale=1.0,
+            refined=self._refined_rows / height,
+            refine_ms=self._refine_ms,
+            bands=self._bands,
+        )
+        return timings
+
+    def _show(self, screen, size: tuple[int, int]) -> None:
+        """The reduced frame scaled up, with the rows refined so far over it."""
+        moving = self.gl.targets.get("moving")
+        if moving is not None:
+            self._draw_target(moving, screen, size, size[1])
+        if not self._moving and self._refined_rows > 0 and "full" in self.gl.targets:
+            self._draw_target(self.gl.targets["full"], screen, size, self._refined_rows)
+
+    def _draw_target(self, source, screen, size: tuple[int, int], rows: int) -> None:
+        program = self.gl.upscale
+        source.color_attachments[0].use(location=0)
+        program["u_source"].value = 0
+        program["u_size"].value = tuple(float(v) for v in size)
+        with drawing_into(self.ctx, screen):
+            # The viewport covers the whole widget (so the shader's coordinates do); the
+            # scissor keeps the rows wanted.
+            self.ctx.viewport = (0, 0, *size)
+            self.ctx.scissor = (0, 0, size[0], rows)
+            try:
+                draw_fullscreen(self.ctx, program)
+            finally:
+                self.ctx.scissor = None
+
+    def _adapt_scale(self, frame_ms: float, scale: float) -> None:
+        # Cost grows with the pixel count, the square of the scale; damped against jitter.
+        wanted = scale * math.sqrt(FRAME_BUDGET_MS / max(frame_ms, 1e-3))
+        wanted = 0.5 * scale + 0.5 * wanted
+        self.moving_scale = min(max(wanted, MIN_SCALE), MAX_MOVING_SCALE)
+
+    def cleanup(self) -> None:
+        """Release our GL objects now (the view then stays blank)."""
+        self.gl.release(self.context())
+
+    # -- mouse -------------------------------------------------------------------------------------
+
+    def mousePressEvent(self, event) -> None:
+        if event.button() == Qt.MouseButton.LeftButton:
+            self._drag_from = event.position()
+        super().mousePressEvent(event)
+
+    def mouseMoveEvent(self, event) -> None:
+        if self._drag_from is not None:
+            delta = event.position() - self._drag_from
+            self._drag_from = event.position()
+            self.orbited.emit(delta.x() * DEG_PER_PIXEL, delta.y() * DEG_PER_PIXEL)
+        super().mouseMoveEvent(event)
+
+    def mouseReleaseEvent(self, event) -> None:
+        if event.button() == Qt.MouseButton.LeftButton:
+            self._drag_from = None
+        super().mouseReleaseEvent(event)
+
+    def wheelEvent(self, event) -> None:
+        steps = event.angleDelta().y() / 120.0
+        if steps:
+            # Wheel forward moves closer.
+            self.zoomed.emit(WHEEL_FACTOR ** (-steps))
+        event.accept()
+
+
+def _band_camera(camera, first_row: int, end_row: int, height: int):
+    """The camera whose frustum is rows [first_row, end_row) of ``camera``'s (rows from the
+    bottom): clip y is stretched so that band fills the viewport."""
+    bottom = 2.0 * first_row / height - 1.0
+    top = 2.0 * end_row / height - 1.0
+    stretch = np.eye(4)
+    stretch[1, 1] = 2.0 / (top - bottom)
+    stretch[1, 3] = -(top + bottom) / (top - bottom)
+    projection = stretch @ camera.projection.astype(np.float64)
+    return dataclasses.replace(camera, projection=projection.astype(np.float32))

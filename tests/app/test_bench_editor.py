@@ -1,0 +1,35 @@
+"""``sand-editor bench editor --quick`` runs the real window through its scenarios and reports
+them (the numbers are the benchmark's business, not the test's)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from sand_editor.app._bench import SCENARIOS
+from tests.app.conftest import run_python
+
+
+@pytest.mark.slow
+def test_bench_editor_reports_every_scenario(tmp_path):
+    out = tmp_path / "editor.json"
+    result = run_python(
+        "-m", "sand_editor", "bench", "editor", "--quick", "--json", str(out), timeout=300
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    results = json.loads(out.read_text())
+    assert [row["scenario"] for row in results["latency"]] == list(SCENARIOS)
+    for row in results["latency"]:
+        assert row["samples"] > 20
+        assert 0.0 <= row["p50_ms"] <= row["p95_ms"] <= row["max_ms"]
+    edit = results["edit_to_screen"]
+    assert 0.0 < edit["low_res_ms"] <= edit["full_ms"]
+    assert edit["3d_ms"] > 0.0 and edit["size_2d"] == 1024
+    assert "| 3D clock |" in result.stdout and "llvmpipe" in result.stdout
+
+
+def test_bench_editor_refuses_options_it_does_not_take():
+    result = run_python("-m", "sand_editor", "bench", "editor", "--plot", "x.png")
+    assert result.returncode == 1
+    assert "--plot" in result.stderr
