@@ -1,0 +1,747 @@
+"""The editor's side of the VR link: start ``sand-editor vr --control stdio`` as a child process,
+stream the preset being edited, the time of day and the mode to it, and turn its answers into Qt
+signals (protocol: ``sand_editor.vr.link``).
+
+The viewer is a separate process so that a runtime, driver or headset problem can never take the
+editor down: whatever the viewer does (crash, hang, refuse to start), the editor says what
+happened and stays usable. Nothing here waits on the process on the GUI thread.
+"""
+
+from __future__ import annotations
+
+import collections
+import os
+import shlex
+import shutil
+import signal
+import sys
+import tempfile
+import time
+from functools import partial
+from pathlib import Path
+
+from PySide6.QtCore import QObject, QProcess, QProcessEnvironment, QTimer, Signal
+from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtWidgets import (
+    QApplication,
+    QLabel,
+    QMainWindow,
+    QMessageBox,
+    QPushButton,
+    QWidget,
+)
+
+from sand_editor.preset import Preset
+from sand_editor.vr.link import (
+    EXIT_BAD_INPUT,
+    EXIT_GRAPHICS,
+    EXIT_INTERRUPTED,
+    EXIT_NO_HEADSET,
+    EXIT_NO_RUNTIME,
+    EXIT_OK,
+    MAX_DAY_SPEED,
+    check_time_fields,
+    decode,
+    encode,
+)
+
+WRAPPER_VARIABLE = "SAND_EDITOR_VR_WRAPPER"
+# The interpreter that runs the viewer; a wrapper that changes root (tools/monado/run) has its
+# own Python, where this process's sys.executable does not exist.
+PYTHON_VARIABLE = "SAND_EDITOR_VR_PYTHON"
+SEND_INTERVAL_MS = 50  # at most one preset per interval: a slider drag sends its latest value
+READY_TIMEOUT_MS = 60_000  # first frame: shader compile and grain generation on llvmpipe
+QUIT_GRACE_MS = 3000  # after "quit", before SIGTERM
+TERMINATE_GRACE_MS = 2000  # after SIGTERM, before SIGKILL
+STDERR_LINES_KEPT = 40
+STDERR_LINES_SHOWN = 6
+STATUS_MESSAGE_MS = 8000
+VR_SHORTCUT = "Ctrl+Shift+V"
+START_TEXT = "View in VR"
+STOP_TEXT = "Stop VR"
+# The one accented button of the tool bar: the way into the headset should be easy to find.
+BUTTON_STYLE = (
+    "QToolButton { font-weight: 600; padding: 3px 12px; border: 1px solid #b9854a;"
+    " border-radius: 4px; background: #f6e7d2; }"
+    " QToolButton:hover { background: #efd6b2; } QToolButton:pressed { background: #e4c393; }"
+)
+# What the viewer is told before the 3D tab exists: the 3D view's own starting values.
+DEFAULT_HOURS = 10.0
+DEFAULT_MODE = "full"
+
+OFFER_DESKTOP = frozenset({EXIT_NO_RUNTIME, EXIT_NO_HEADSET})
+EXIT_MEANINGS = {
+    EXIT_BAD_INPUT: "the viewer refused its input (preset or arguments)",
+    EXIT_NO_RUNTIME: "no OpenXR runtime is installed or active",
+    EXIT_NO_HEADSET: "the OpenXR runtime found no headset",
+    EXIT_GRAPHICS: "the viewer could not set up graphics (no OpenGL context, or the runtime "
+    "refused the session)",
+    EXIT_INTERRUPTED: "the viewer was interrupted",
+}
+FIXES = {
+    EXIT_NO_RUNTIME: "Install and activate an OpenXR runtime such as SteamVR, Monado or WiVRn "
+    "(make it the active runtime in its settings, or point XR_RUNTIME_JSON at its manifest), "
+    "then press View in VR again.",
+    EXIT_NO_HEADSET: "Connect the headset and turn it on (for WiVRn or ALVR, start the app on "
+    "the headset), make sure the runtime shows it as ready, then press View in VR again.",
+}
+
+
+def exit_meaning(status: int) -> str:
+    """What an exit status of ``sand-editor vr`` means, in words; negative: killed by a signal."""
+    if status < 0:
+        try:
+            name = signal.Signals(-status).name
+        except ValueError:
+            name = f"signal {-status}"
+        return f"the viewer was killed by {name}"
+    if status == EXIT_OK:
+        return "the viewer closed"
+    return EXIT_MEANINGS.get(status, f"the viewer stopped with exit status {status}")
+
+
+def viewer_command(
+    preset_file: Path | None,
+    desktop: bool,
+    scene: dict | None = None,
+    extra_args: tuple[str, ...] = (),
+) -> list[str]:
+    """The command line that starts the viewer, wrapper first; without ``preset_file`` the
+    viewer starts on its default preset.
+
+    ``scene`` holds what the viewer starts with: ``hours``, ``day_speed`` (simulated hours per
+    real second, 0 when the day is paused) and ``mode``, each optional.
+
+    Raises
+    ------
+    ValueError
+        When the wrapper variable cannot be split like a shell command line.
+    """
+    try:
+        wrapper = shlex.split(os.environ.get(WRAPPER_VARIABLE, ""))
+    except ValueError as error:
+        raise ValueError(f"{WRAPPER_VARIABLE}: {error}") from None
+    python = os.environ.get(PYTHON_VARIABLE) or sys.executable
+    command = [*wrapper, python, "-m", "sand_editor", "vr", "--control", "stdio"]
+    if desktop:
+        command.append("--desktop")
+    scene = scene or {}
+    if "hours" in scene:
+        minutes = round(scene["hours"] * 60.0) % (24 * 60)
+        command += ["--time", f"{minutes // 60:02d}:{minutes % 60:02d}"]
+    if scene.get("day_speed"):
+        command += ["--day-speed", f"{scene['day_speed']:.6g}"]
+    if "mode" in scene:
+        command += ["--mode", scene["mode"]]
+    command += extra_args
+    return command if preset_file is None else [*command, str(preset_file)]
+
+
+class VrLink(QObject):
+    """One viewer process at a time and the JSON-lines conversation with it.
+
+    Signals
+    -------
+    started()
+        The process is running (not yet showing anything).
+    ready(dict)
+        The viewer submitted its first frame: ``backend``, ``runtime``, ``system``, ``views``.
+    state(str)
+        The session state changed (``FOCUSED``, ``VISIBLE``, ``STOPPING``…).
+    applied(int, float)
+        The preset with that sequence number is on screen; the viewer's ms from receipt.
+    time(dict)
+        The time of day changed in VR: any of ``hours``, ``day_speed``, ``playing``.
+    mode(str)
+        The render mode was changed in VR.
+    error(str)
+        A recoverable problem the viewer reported, or a line it sent that is not the protocol.
+    finished(int, str)
+        The process is gone: its exit status (negative: the signal that killed it; -1 when it
+        never started) and a sentence saying what happened.
+    """
+
+    started = Signal()
+    ready = Signal(object)
+    state = Signal(str)
+    applied = Signal(int, float)
+    time = Signal(object)
+    mode = Signal(str)
+    error = Signal(str)
+    finished = Signal(int, str)
+
+    def __init__(self, parent: QObject | None = None):
+        super().__init__(parent)
+        self.ready_timeout_ms = READY_TIMEOUT_MS
+        self.extra_args: tuple[str, ...] = ()  # more viewer options, e.g. ("--render-scale", "0.5")
+        self.process: QProcess | None = None
+        self.desktop = False
+        self.ready_info: dict | None = None
+        self.session_state = ""
+        self.stderr_lines: collections.deque[str] = collections.deque(maxlen=STDERR_LINES_KEPT)
+        self.seq = 0
+        self.sent: collections.Counter[str] = collections.Counter()  # messages by type
+        # seq → perf_counter() of the edit that the message carries, for edit-to-screen latency.
+        self.latency_ms: dict[int, float] = {}
+        self._edit_times: dict[int, float] = {}
+        self._pending_preset: Preset | None = None
+        self._pending_since = 0.0
+        self._pending: dict[str, dict] = {}  # other messages by type, the latest of each
+        self._sent_preset: Preset | None = None
+        self._stdout = b""
+        self._folder: str | None = None
+        # Why the editor ended the viewer itself (it hung); None when it exited on its own.
+        self.stop_reason: str | None = None
+        self._send_timer = QTimer(self, singleShot=True, interval=SEND_INTERVAL_MS)
+        self._send_timer.timeout.connect(self._flush)
+        self._ready_timer = QTimer(self, singleShot=True)
+        self._ready_timer.timeout.connect(self._ready_timed_out)
+        self._terminate_timer = QTimer(self, singleShot=True, interval=QUIT_GRACE_MS)
+        self._terminate_timer.timeout.connect(self._terminate)
+        self._kill_timer = QTimer(self, singleShot=True, interval=TERMINATE_GRACE_MS)
+        self._kill_timer.timeout.connect(self._kill)
+
+    # -- life cycle ---------------------------------------------------------------------------
+
+    @property
+    def running(self) -> bool:
+        """True from ``start`` until ``finished`` has been emitted."""
+        return self.process is not None
+
+    @property
+    def is_ready(self) -> bool:
+        return self.ready_info is not None
+
+    @property
+    def stopping(self) -> bool:
+        return self._terminate_timer.isActive() or self._kill_timer.isActive()
+
+    def start(self, preset: Preset, desktop: bool = False, scene: dict | None = None) -> None:
+        """Start the viewer on ``preset`` and ``scene`` (see ``viewer_command``); ``finished``
+        follows if it cannot start."""
+        if self.running:
+            raise RuntimeError("the VR viewer is already running")
+        self.desktop = desktop
+        self.ready_info = None
+        self.session_state = ""
+        self.stderr_lines.clear()
+        self._stdout = b""
+        self.stop_reason = None
+        self._pending_preset = None
+        self._pending.clear()
+        # A wrapper may run the viewer where this machine's temporary folder is not (a chroot,
+        # a container): the preset then goes over the link, as its first message.
+        through_link = bool(os.environ.get(WRAPPER_VARIABLE, "").strip())
+        preset_file = None
+        try:
+            if not through_link:
+                self._folder = tempfile.mkdtemp(prefix="sand-editor-vr-")
+                preset_file = Path(self._folder) / "preset.json"
+                preset.save(preset_file)
+            command = viewer_command(preset_file, desktop, scene, tuple(self.extra_args))
+        except ValueError as error:  # PresetError included
+            self._end(-1, f"Cannot start the VR viewer: {error}")
+            return
+        self._sent_preset = None
+        if through_link:
+            self.send_preset(preset)
+        else:
+            self._sent_preset = preset
+        process = self.process = QProcess(self)
+        environment = QProcessEnvironment.systemEnvironment()
+        environment.insert("PYTHONUNBUFFERED", "1")
+        process.setProcessEnvironment(environment)
+        process.setProgram(command[0])
+        process.setArguments(command[1:])
+        # Bound to this process: a stopped viewer's late signals must not reach the next one.
+        process.readyReadStandardOutput.connect(partial(self._read_stdout, process))
+        process.readyReadStandardError.connect(partial(self._read_stderr, process))
+        process.errorOccurred.connect(partial(self._process_error, process))
+        process.finished.connect(partial(self._process_finished, process))
+        process.started.connect(partial(self._process_started, process))
+        self._ready_timer.start(self.ready_timeout_ms)
+        process.start()
+
+    def _process_started(self, process: QProcess) -> None:
+        if process is self.process:
+            if self._pending_preset is not None:
+                self._send_preset()  # the starting preset, when it is not given as a file
+            self.started.emit()
+
+    def stop(self) -> None:
+        """Ask the viewer to quit; SIGTERM and then SIGKILL follow if it does not."""
+        if self.process is None or self.stopping:
+            return
+        self._ready_timer.stop()
+        self._send({"type": "quit"})
+        self.process.closeWriteChannel()
+        self._terminate_timer.start()
+
+    def shutdown(self) -> None:
+        """End the viewer now (the editor is going away): quit, then kill what is left."""
+        if self.process is None:
+            return
+        if self.process.state() == QProcess.ProcessState.Running:
+            self._send({"type": "quit"})
+            self.process.closeWriteChannel()
+            # A few ms for a clean exit; the viewer also quits by itself at EOF on its stdin.
+            if not self.process.waitForFinished(50):
+                self.process.kill()
+                self.process.waitForFinished(50)
+        if self.process is not None:
+            self._end(self._exit_status(), "The VR viewer was closed with the editor.")
+
+    def _terminate(self) -> None:
+        if self.process is not None:
+            self.stop_reason = self.stop_reason or "it did not quit when asked"
+            self.process.terminate()
+            self._kill_timer.start()
+
+    def _kill(self) -> None:
+        if self.process is not None:
+            self.process.kill()
+
+    def _ready_timed_out(self) -> None:
+        if self.process is None or self.is_ready:
+            return
+        seconds = self.ready_timeout_ms / 1000
+        self.stop_reason = f"it showed nothing within {seconds:g} s"
+        self.process.closeWriteChannel()
+        self._terminate()
+
+    def _process_error(self, process: QProcess, error: QProcess.ProcessError) -> None:
+        if error == QProcess.ProcessError.FailedToStart and process is self.process:
+            self._end(
+                -1,
+                f"Cannot start the VR viewer: {process.program()}: {process.errorString()}. "
+                f"Check {WRAPPER_VARIABLE} and {PYTHON_VARIABLE} if they are set.",
+            )
+
+    def _process_finished(self, process: QProcess, *_exit) -> None:
+        if process is not self.process:
+            return
+        self._read_stdout(process)
+        self._read_stderr(process)
+        status = self._exit_status()
+        self._end(status, self._describe_exit(status))
+
+    def _exit_status(self) -> int:
+        process = self.process
+        if process is None or process.state() != QProcess.ProcessState.NotRunning:
+            return -int(signal.SIGKILL)
+        if process.exitStatus() == QProcess.ExitStatus.CrashExit:
+            # Qt reports the terminating signal as the exit code of a crashed process.
+            return -process.exitCode() if process.exitCode() > 0 else -int(signal.SIGKILL)
+        return process.exitCode()
+
+    def _describe_exit(self, status: int) -> str:
+        sentence = exit_meaning(status)
+        if self.stop_reason is not None:
+            sentence = f"the viewer was stopped because {self.stop_reason} ({sentence})"
+        elif status == EXIT_OK and not self.is_ready:
+            sentence = "the viewer closed before it showed anything"
+        message = sentence[0].upper() + sentence[1:] + "."
+        if status in FIXES:
+            message += " " + FIXES[status]
+        tail = self.stderr_tail()
+        if tail and (status != EXIT_OK or self.stop_reason is not None):
+            message += "\n\nLast lines from the viewer:\n" + tail
+        return message
+
+    def stderr_tail(self, lines: int = STDERR_LINES_SHOWN) -> str:
+        return "\n".join(list(self.stderr_lines)[-lines:])
+
+    def _end(self, status: int, message: str) -> None:
+        process, self.process = self.process, None
+        for timer in (self._ready_timer, self._terminate_timer, self._kill_timer, self._send_timer):
+            timer.stop()
+        if process is not None:
+            if process.state() != QProcess.ProcessState.NotRunning:
+                process.kill()  # only reached from shutdown(), where it was already killed
+            process.deleteLater()
+        if self._folder is not None:
+            shutil.rmtree(self._folder, ignore_errors=True)
+            self._folder = None
+        self.finished.emit(status, message)
+
+    # -- editor → viewer ----------------------------------------------------------------------
+
+    def send_preset(self, preset: Preset) -> None:
+        """Stream a preset (saved or not); sent at most every ``SEND_INTERVAL_MS``, the latest."""
+        if self._pending_preset is None:
+            self._pending_since = time.perf_counter()
+        self._pending_preset = preset
+        self._schedule()
+
+    def send_time(self, **fields) -> None:
+        """Any of ``hours``, ``day_speed`` (simulated hours per real second), ``playing``."""
+        merged = self._pending.get("time", {"type": "time"})
+        merged.update(fields)
+        self._pending["time"] = merged
+        self._schedule()
+
+    def send_mode(self, mode: str) -> None:
+        self._pending["mode"] = {"type": "mode", "mode": mode}
+        self._schedule()
+
+    def _schedule(self) -> None:
+        # Before "ready" everything waits; the latest of each kind is sent once the viewer shows.
+        if self.is_ready and not self._send_timer.isActive():
+            self._send_timer.start()
+
+    def _flush(self) -> None:
+        if self.process is None or not self.is_ready or self.stopping:
+            return
+        self._send_preset()
+        for message in self._pending.values():
+            self._send(message)
+        self._pending.clear()
+
+    def _send_preset(self) -> None:
+        preset, self._pending_preset = self._pending_preset, None
+        if preset is not None and preset != self._sent_preset:
+            self.seq += 1
+            self._edit_times[self.seq] = self._pending_since
+            self._sent_preset = preset
+            self._send({"type": "preset", "preset": preset.to_dict(), "seq": self.seq})
+
+    def _send(self, message: dict) -> None:
+        if self.process is not None and self.process.state() == QProcess.ProcessState.Running:
+            self.process.write(encode(**message).encode("utf-8"))
+            self.sent[message["type"]] += 1
+
+    # -- viewer → editor ----------------------------------------------------------------------
+
+    def _read_stdout(self, process: QProcess) -> None:
+        if process is not self.process:
+            return
+        self._stdout += bytes(process.readAllStandardOutput().data())
+        *lines, self._stdout = self._stdout.split(b"\n")
+        for line in lines:
+            if line.strip():
+                self._receive(line)
+
+    def _receive(self, line: bytes) -> None:
+        try:
+            message = decode(line)
+        except ValueError as problem:
+            self.error.emit(f"The VR viewer sent a line that is not the link protocol: {problem}")
+            return
+        kind = message.get("type")
+        if kind == "ready":
+            self._ready_timer.stop()
+            self.ready_info = message
+            self.ready.emit(message)
+            self._schedule()
+        elif kind == "state":
+            self.session_state = str(message.get("state", ""))
+            self.state.emit(self.session_state)
+        elif kind == "applied":
+            seq = int(message.get("seq", -1))
+            edited = self._edit_times.pop(seq, None)
+            if edited is not None:
+                self.latency_ms[seq] = (time.perf_counter() - edited) * 1000.0
+            self.applied.emit(seq, float(message.get("ms", float("nan"))))
+        elif kind == "time":
+            try:
+                self.time.emit(check_time_fields(message))
+            except ValueError as problem:
+                self.error.emit(f"The VR viewer sent a bad time: {problem}")
+        elif kind == "mode":
+            self.mode.emit(str(message.get("mode", "")))
+        elif kind == "error":
+            self.error.emit(str(message.get("message", "")))
+        elif kind == "bye":
+            self.session_state = "EXITING"
+        else:
+            self.error.emit(f"The VR viewer sent a message of unknown type {kind!r}.")
+
+    def _read_stderr(self, process: QProcess) -> None:
+        if process is not self.process:
+            return
+        text = bytes(process.readAllStandardError().data()).decode("utf-8", "replace")
+        for line in text.splitlines():
+            if line.strip():
+                self.stderr_lines.append(line.rstrip())
+                print(f"vr: {line.rstrip()}", file=sys.stderr)
+
+
+class VrControls(QObject):
+    """The editor window's VR button, menu and state label, and the link's bindings to the
+    preset model and to the 3D view's time-of-day and mode controls.
+
+    Parameters
+    ----------
+    window
+        The editor window: its ``model``, ``preview`` (with the 3D panel once it exists), menu
+        bar, tool bars and status bar are used.
+    """
+
+    def __init__(self, window: QMainWindow):
+        super().__init__(window)
+        self.window = window
+        self.link = VrLink(self)
+        self.message_box: QMessageBox | None = None
+        self.desktop_button: QPushButton | None = None
+        self._panel: QWidget | None = None
+        self._applying_remote = False
+        self._close_window_after = False
+        # The viewer's time of day and mode as last known (day_speed in simulated hours per
+        # real second, kept while the day is paused), and when "hours" was true.
+        self._scene = dict(hours=DEFAULT_HOURS, day_speed=0.0, playing=False, mode=DEFAULT_MODE)
+        self._scene_clock = time.perf_counter()
+
+        shortcut = QKeySequence(VR_SHORTCUT)
+        self.action = QAction(START_TEXT, self, objectName="vr-action")
+        self.action.setShortcut(shortcut)
+        self.action.triggered.connect(self.toggle)
+        self._start_tip = (
+            "Show the sand you are editing in your VR headset, with your edits and the time "
+            f"of day live ({shortcut.toString(QKeySequence.SequenceFormat.NativeText)})"
+        )
+        self.desktop_action = QAction("Desktop stereo preview", self, objectName="vr-desktop")
+        self.desktop_action.setStatusTip("Both eyes side by side in a window, without a headset")
+        self.desktop_action.triggered.connect(lambda: self.start(desktop=True))
+        self.state_label = QLabel(objectName="vr-state")
+
+        menu = window.menuBar().addMenu("&VR")
+        menu.addActions([self.action, self.desktop_action])
+        toolbar = window.addToolBar("VR")
+        toolbar.setObjectName("vr-toolbar")
+        toolbar.addAction(self.action)
+        toolbar.addWidget(self.state_label)
+        self.button = toolbar.widgetForAction(self.action)
+        self.button.setObjectName("vr-button")
+        self.button.setStyleSheet(BUTTON_STYLE)
+        self.state_label.setStyleSheet("padding: 0 8px; color: #555555;")
+
+        self.link.started.connect(self._show_state)
+        self.link.ready.connect(self._on_ready)
+        self.link.state.connect(self._show_state)
+        self.link.applied.connect(self._on_applied)
+        self.link.time.connect(self._remote_time)
+        self.link.mode.connect(self._remote_mode)
+        self.link.error.connect(self._on_error)
+        self.link.finished.connect(self._on_finished)
+        window.model.changed.connect(self._local_preset)
+        window.preview.tabs.currentChanged.connect(self._attach_panel)
+        app = QApplication.instance()
+        if app is not None:
+            app.aboutToQuit.connect(self.link.shutdown)
+        self._attach_panel()
+        self._show_state()
+
+    # -- starting and stopping ----------------------------------------------------------------
+
+    def toggle(self) -> None:
+        if self.link.running:
+            self.link.stop()
+            self._show_state()
+        else:
+            self.start()
+
+    def start(self, desktop: bool = False) -> None:
+        """Start the viewer on the preset as it is now (unsaved edits included)."""
+        if self.link.running:
+            return
+        self._close_message()
+        scene = self._local_scene()
+        self._update_scene(**scene)
+        start_scene = {**scene, "day_speed": scene["day_speed"] if scene["playing"] else 0.0}
+        self.link.start(self.window.model.preset, desktop=desktop, scene=start_scene)
+        self._show_state()
+
+    def close_window(self) -> bool:
+        """True when the window may close now; otherwise the viewer is asked to quit and the
+        window closes itself once the viewer has exited."""
+        if not self.link.running:
+            return True
+        self._close_window_after = True
+        self.link.stop()
+        self._show_state()
+        return False
+
+    # -- what the button and label show -------------------------------------------------------
+
+    def _show_state(self, *_args) -> None:
+        link = self.link
+        if not link.running:
+            text, tip = "", self._start_tip
+        elif link.stopping:
+            text, tip = "Closing…", "Waiting for the VR viewer to close"
+        elif not link.is_ready:
+            text = "Starting desktop preview…" if link.desktop else "Starting…"
+            tip = "Waiting for the viewer's first frame"
+        else:
+            info = link.ready_info
+            where = "Desktop preview" if info.get("backend") == "desktop" else "Headset"
+            system = info.get("system") or info.get("runtime") or ""
+            text = " · ".join(part for part in (where, link.session_state) if part)
+            tip = f"{where}: {system}" if system else where
+        self.action.setText(STOP_TEXT if link.running else START_TEXT)
+        self.action.setToolTip(tip if link.running else self._start_tip)
+        self.action.setStatusTip(self.action.toolTip())
+        self.desktop_action.setEnabled(not link.running)
+        self.state_label.setText(text)
+
+    def _on_ready(self, info: dict) -> None:
+        views = info.get("views") or []
+        size = f"{views[0].get('width')}×{views[0].get('height')} per eye" if views else ""
+        self._status(f"VR viewer ready: {info.get('runtime', '')} {size}".strip())
+        self._show_state()
+
+    def _on_applied(self, seq: int, ms: float) -> None:
+        self._status(f"VR: edit #{seq} on screen, {ms:.0f} ms after it arrived")
+
+    def _on_error(self, message: str) -> None:
+        self._status(f"VR: {message}")
+
+    def _on_finished(self, status: int, message: str) -> None:
+        self._show_state()
+        if self._close_window_after:
+            self._close_window_after = False
+            QTimer.singleShot(0, self.window.close)
+            return
+        self._status("VR: " + message.split("\n", 1)[0])
+        if status not in (EXIT_OK, EXIT_INTERRUPTED) or self.link.stop_reason is not None:
+            self._show_message(status, message)
+
+    def _show_message(self, status: int, message: str) -> None:
+        self._close_message()
+        text, _, details = message.partition("\n\nLast lines from the viewer:\n")
+        box = QMessageBox(self.window)
+        box.setObjectName("vr-message")
+        box.setIcon(QMessageBox.Icon.Warning)
+        box.setWindowTitle(
+            {EXIT_NO_RUNTIME: "No OpenXR runtime", EXIT_NO_HEADSET: "No VR headset"}.get(
+                status, "VR viewer stopped"
+            )
+        )
+        box.setText(text)
+        if details:
+            box.setInformativeText("Last lines from the viewer:\n" + details)
+            box.setDetailedText("\n".join(self.link.stderr_lines))
+        self.desktop_button = None
+        if status in OFFER_DESKTOP:
+            box.setInformativeText(
+                "You can look at the sand in stereo without a headset: both eyes side by "
+                "side in a window, with mouse-look and keyboard controls."
+            )
+            self.desktop_button = box.addButton(
+                "Open desktop preview", QMessageBox.ButtonRole.AcceptRole
+            )
+            box.addButton(QMessageBox.StandardButton.Close)
+        else:
+            box.addButton(QMessageBox.StandardButton.Ok)
+        box.buttonClicked.connect(self._message_answered)
+        self.message_box = box
+        box.open()  # window-modal, without a nested event loop
+
+    def _message_answered(self, button) -> None:
+        offered = self.desktop_button
+        self.message_box = self.desktop_button = None
+        if offered is not None and button is offered:
+            self.start(desktop=True)
+
+    def _close_message(self) -> None:
+        if self.message_box is not None:
+            box, self.message_box = self.message_box, None
+            box.close()
+            box.deleteLater()
+
+    def _status(self, text: str) -> None:
+        self.window.statusBar().showMessage(text, STATUS_MESSAGE_MS)
+
+    # -- editor → viewer ----------------------------------------------------------------------
+
+    def _local_preset(self, preset: Preset, _paths) -> None:
+        if self.link.running:
+            self.link.send_preset(preset)
+
+    def _attach_panel(self, *_args) -> None:
+        panel = getattr(self.window.preview, "view3d", None)
+        if panel is None or panel is self._panel:
+            return
+        self._panel = panel
+        panel.time_slider.valueChanged.connect(self._local_time_changed)
+        panel.day_speed.valueChanged.connect(self._local_time_changed)
+        panel.mode_combo.currentIndexChanged.connect(self._local_mode_changed)
+        if self.link.running:
+            # The panel is new and shows its defaults; the viewer's clock is the one running.
+            self._apply_to_panel(self._scene_now())
+
+    def _scene_now(self) -> dict:
+        """The viewer's time and mode as last known, its clock run on since then."""
+        scene = dict(self._scene)
+        if scene["playing"]:
+            elapsed = time.perf_counter() - self._scene_clock
+            scene["hours"] = (scene["hours"] + elapsed * scene["day_speed"]) % 24.0
+        return scene
+
+    def _update_scene(self, **fields) -> None:
+        if "hours" in fields or "playing" in fields or "day_speed" in fields:
+            self._scene["hours"] = self._scene_now()["hours"]
+            self._scene_clock = time.perf_counter()
+        self._scene.update(fields)
+
+    def _local_scene(self) -> dict:
+        """What the editor shows: the 3D tab's controls, or the last known scene without it."""
+        panel = self._panel
+        if panel is None:
+            return self._scene_now()
+        speed = min(panel.day_speed.value() / 3600.0, MAX_DAY_SPEED)
+        return {
+            "hours": float(panel.view.time_hours) % 24.0,
+            "day_speed": speed if speed > 0 else self._scene["day_speed"],
+            "playing": speed > 0,
+            "mode": panel.mode_combo.currentData(),
+        }
+
+    def _local_time_changed(self, *_args) -> None:
+        if self._applying_remote:
+            return
+        scene = self._local_scene()
+        fields = {key: scene[key] for key in ("hours", "day_speed", "playing")}
+        self._update_scene(**fields)
+        if self.link.running:
+            if not fields["day_speed"]:
+                del fields["day_speed"]  # never set: the viewer keeps its own
+            self.link.send_time(**fields)
+
+    def _local_mode_changed(self, *_args) -> None:
+        if self._applying_remote:
+            return
+        self._update_scene(mode=self._local_scene()["mode"])
+        if self.link.running:
+            self.link.send_mode(self._scene["mode"])
+
+    # -- viewer → editor ----------------------------------------------------------------------
+
+    def _remote_time(self, fields: dict) -> None:
+        self._update_scene(**fields)
+        self._apply_to_panel(fields)
+
+    def _remote_mode(self, mode: str) -> None:
+        if self._panel is not None and self._panel.mode_combo.findData(mode) < 0:
+            self._on_error(f"the viewer switched to an unknown mode {mode!r}")
+            return
+        self._update_scene(mode=mode)
+        self._apply_to_panel({"mode": mode})
+
+    def _apply_to_panel(self, fields: dict) -> None:
+        """Show the viewer's values in the 3D tab without sending them back."""
+        panel = self._panel
+        if panel is None:
+            return
+        self._applying_remote = True
+        try:
+            if "hours" in fields:
+                panel.set_time(fields["hours"])
+            if "playing" in fields or "day_speed" in fields:
+                playing = fields.get("playing", self._scene["playing"])
+                speed = self._scene["day_speed"] if playing else 0.0
+                panel.day_speed.setValue(round(speed * 3600.0))
+            if "mode" in fields:
+                panel.mode_combo.setCurrentIndex(panel.mode_combo.findData(fields["mode"]))
+        finally:
+            self._applying_remote = False
