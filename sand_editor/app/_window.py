@@ -20,6 +20,7 @@ from sand_editor.app._controls import ControlsPanel
 from sand_editor.app._model import PresetModel
 from sand_editor.app._preview import PreviewPanel
 from sand_editor.app._regenerator import Regenerator
+from sand_editor.app._vr import VrControls
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir
@@ -81,6 +82,7 @@ class EditorWindow(QMainWindow):
         self.model.refused.connect(lambda text: self.statusBar().showMessage(text, 10_000))
         self.model.undo_stack.cleanChanged.connect(self._update_title)
         self._build_actions()
+        self.vr = VrControls(self)  # the "View in VR" button, menu and link to the viewer
         self._update_title()
         self.regenerator.request(self.model.preset)
 
@@ -151,7 +153,8 @@ class EditorWindow(QMainWindow):
         return answer == QMessageBox.StandardButton.Discard
 
     def closeEvent(self, event: QCloseEvent) -> None:
-        if self.maybe_save():
+        # A running VR viewer is asked to quit first; the window closes again once it has.
+        if self.vr.close_window() and self.maybe_save():
             event.accept()
         else:
             event.ignore()
