@@ -49,7 +49,7 @@ WRAPPER_VARIABLE = "SAND_EDITOR_VR_WRAPPER"
 # The interpreter that runs the viewer; a wrapper that changes root (tools/monado/run) has its
 # own Python, where this process's sys.executable does not exist.
 PYTHON_VARIABLE = "SAND_EDITOR_VR_PYTHON"
-SEND_INTERVAL_MS = 50  # at most one preset per interval: a slider drag sends its latest value
+SEND_INTERVAL_MS = 50  # at most one send per interval: a slider drag sends its latest value
 READY_TIMEOUT_MS = 60_000  # first frame: shader compile and grain generation on llvmpipe
 QUIT_GRACE_MS = 3000  # after "quit", before SIGTERM
 TERMINATE_GRACE_MS = 2000  # after SIGTERM, before SIGKILL
@@ -186,13 +186,14 @@ class VrLink(QObject):
         self._edit_times: dict[int, float] = {}
         self._pending_preset: Preset | None = None
         self._pending_since = 0.0
+        self._last_flush = 0.0  # perf_counter() of the last send
         self._pending: dict[str, dict] = {}  # other messages by type, the latest of each
         self._sent_preset: Preset | None = None
         self._stdout = b""
         self._folder: str | None = None
         # Why the editor ended the viewer itself (it hung); None when it exited on its own.
         self.stop_reason: str | None = None
-        self._send_timer = QTimer(self, singleShot=True, interval=SEND_INTERVAL_MS)
+        self._send_timer = QTimer(self, singleShot=True)
         self._send_timer.timeout.connect(self._flush)
         self._ready_timer = QTimer(self, singleShot=True)
         self._ready_timer.timeout.connect(self._ready_timed_out)
@@ -211,6 +212,11 @@ class VrLink(QObject):
     @property
     def is_ready(self) -> bool:
         return self.ready_info is not None
+
+    @property
+    def last_sent_preset(self) -> Preset | None:
+        """The preset the viewer was last given (on its command line or over the link)."""
+        return self._sent_preset
 
     @property
     def stopping(self) -> bool:
@@ -386,12 +392,19 @@ class VrLink(QObject):
 
     def _schedule(self) -> None:
         # Before "ready" everything waits; the latest of each kind is sent once the viewer shows.
-        if self.is_ready and not self._send_timer.isActive():
-            self._send_timer.start()
+        if not self.is_ready or self._send_timer.isActive():
+            return
+        # The first change after a pause goes at once; during a drag one per interval follows.
+        wait_ms = SEND_INTERVAL_MS - (time.perf_counter() - self._last_flush) * 1000.0
+        if wait_ms <= 0:
+            self._flush()
+        else:
+            self._send_timer.start(max(1, round(wait_ms)))
 
     def _flush(self) -> None:
         if self.process is None or not self.is_ready or self.stopping:
             return
+        self._last_flush = time.perf_counter()
         self._send_preset()
         for message in self._pending.values():
             self._send(message)

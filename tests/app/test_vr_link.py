@@ -217,6 +217,16 @@ def test_no_runtime_offers_the_desktop_preview_which_follows_the_editor_both_way
     assert window.isWindowModified()
     assert vr.link.latency_ms[vr.link.seq] > 0
 
+    # A slider drag: the first value goes at once, the rest as one message with the latest.
+    seq_before = vr.link.seq
+    for step in range(10):
+        window.model.edit("shading.glint_shininess", 5.0 + step, gesture=True)
+    window.model.end_gesture()
+    qtbot.wait(3 * SEND_INTERVAL_MS)
+    assert 1 <= vr.link.seq - seq_before <= 2
+    assert vr.link.last_sent_preset == window.model.preset
+    qtbot.waitUntil(lambda: any(s == vr.link.seq for s, _ in applied), timeout=ANSWER_TIMEOUT_MS)
+
     # Scrubbing in the viewer starts from the editor's 18:00 and moves the editor's clock.
     reported = []
     vr.link.time.connect(reported.append)
