@@ -51,6 +51,7 @@ WRAPPER_VARIABLE = "SAND_EDITOR_VR_WRAPPER"
 PYTHON_VARIABLE = "SAND_EDITOR_VR_PYTHON"
 SEND_INTERVAL_MS = 50  # at most one send per interval: a slider drag sends its latest value
 READY_TIMEOUT_MS = 60_000  # first frame: shader compile and grain generation on llvmpipe
+ANSWER_TIMEOUT_MS = 30_000  # a preset not on screen by then: the viewer is not responding
 QUIT_GRACE_MS = 3000  # after "quit", before SIGTERM
 TERMINATE_GRACE_MS = 2000  # after SIGTERM, before SIGKILL
 STDERR_LINES_KEPT = 40
@@ -197,6 +198,10 @@ class VrLink(QObject):
         self._send_timer.timeout.connect(self._flush)
         self._ready_timer = QTimer(self, singleShot=True)
         self._ready_timer.timeout.connect(self._ready_timed_out)
+        self.answer_timeout_ms = ANSWER_TIMEOUT_MS
+        self.responding = True  # False while a sent preset has waited too long for "applied"
+        self._answer_timer = QTimer(self, singleShot=True)
+        self._answer_timer.timeout.connect(self._answer_timed_out)
         self._terminate_timer = QTimer(self, singleShot=True, interval=QUIT_GRACE_MS)
         self._terminate_timer.timeout.connect(self._terminate)
         self._kill_timer = QTimer(self, singleShot=True, interval=TERMINATE_GRACE_MS)
@@ -235,6 +240,7 @@ class VrLink(QObject):
         self.stop_reason = None
         self._pending_preset = None
         self._pending.clear()
+        self._edit_times.clear()
         # A wrapper may run the viewer where this machine's temporary folder is not (a chroot,
         # a container): the preset then goes over the link, as its first message.
         through_link = bool(os.environ.get(WRAPPER_VARIABLE, "").strip())
@@ -315,6 +321,15 @@ class VrLink(QObject):
         self.process.closeWriteChannel()
         self._terminate()
 
+    def _answer_timed_out(self) -> None:
+        if self.process is not None and not self.stopping:
+            self.responding = False
+            seconds = self.answer_timeout_ms / 1000
+            self.error.emit(
+                f"the viewer has not shown edit #{self.seq} within {seconds:g} s and may be "
+                "hanging; Stop VR ends it"
+            )
+
     def _process_error(self, process: QProcess, error: QProcess.ProcessError) -> None:
         if error == QProcess.ProcessError.FailedToStart and process is self.process:
             self._end(
@@ -359,8 +374,10 @@ class VrLink(QObject):
 
     def _end(self, status: int, message: str) -> None:
         process, self.process = self.process, None
-        for timer in (self._ready_timer, self._terminate_timer, self._kill_timer, self._send_timer):
+        timers = (self._ready_timer, self._answer_timer, self._terminate_timer, self._kill_timer)
+        for timer in (*timers, self._send_timer):
             timer.stop()
+        self.responding = True
         if process is not None:
             if process.state() != QProcess.ProcessState.NotRunning:
                 process.kill()  # only reached from shutdown(), where it was already killed
@@ -417,6 +434,8 @@ class VrLink(QObject):
             self._edit_times[self.seq] = self._pending_since
             self._sent_preset = preset
             self._send({"type": "preset", "preset": preset.to_dict(), "seq": self.seq})
+            if self.is_ready and not self._answer_timer.isActive():
+                self._answer_timer.start(self.answer_timeout_ms)
 
     def _send(self, message: dict) -> None:
         if self.process is not None and self.process.state() == QProcess.ProcessState.Running:
@@ -443,6 +462,8 @@ class VrLink(QObject):
         kind = message.get("type")
         if kind == "ready":
             self._ready_timer.stop()
+            if self._edit_times:  # the starting preset went over the link
+                self._answer_timer.start(self.answer_timeout_ms)
             self.ready_info = message
             self.ready.emit(message)
             self._schedule()
@@ -451,6 +472,11 @@ class VrLink(QObject):
             self.state.emit(self.session_state)
         elif kind == "applied":
             seq = int(message.get("seq", -1))
+            if seq == self.seq:
+                self._answer_timer.stop()
+            elif self._answer_timer.isActive():
+                self._answer_timer.start(self.answer_timeout_ms)  # answering, a newer one is due
+            self.responding = True
             edited = self._edit_times.pop(seq, None)
             if edited is not None:
                 self.latency_ms[seq] = (time.perf_counter() - edited) * 1000.0
@@ -585,6 +611,8 @@ class VrControls(QObject):
         elif not link.is_ready:
             text = "Starting desktop preview…" if link.desktop else "Starting…"
             tip = "Waiting for the viewer's first frame"
+        elif not link.responding:
+            text, tip = "Not responding", "The viewer has not shown the latest edit"
         else:
             info = link.ready_info
             where = "Desktop preview" if info.get("backend") == "desktop" else "Headset"
@@ -605,9 +633,11 @@ class VrControls(QObject):
 
     def _on_applied(self, seq: int, ms: float) -> None:
         self._status(f"VR: edit #{seq} on screen, {ms:.0f} ms after it arrived")
+        self._show_state()
 
     def _on_error(self, message: str) -> None:
         self._status(f"VR: {message}")
+        self._show_state()
 
     def _on_finished(self, status: int, message: str) -> None:
         self._show_state()

@@ -288,6 +288,32 @@ def test_a_viewer_killed_mid_session_leaves_the_editor_working(vr, window, qtbot
 
 
 @pytest.mark.slow
+def test_a_viewer_that_hangs_is_reported_and_ended_by_stop(vr, window, qtbot):
+    start_desktop(vr, qtbot)
+    vr.link.answer_timeout_ms = 1000
+    pid = vr.link.process.processId()
+    os.kill(pid, signal.SIGSTOP)  # frozen, as a viewer stuck in a driver call would be
+    try:
+        window.model.edit("shading.glint_shininess", 20.0)
+        qtbot.waitUntil(lambda: vr.state_label.text() == "Not responding", timeout=10_000)
+        assert "may be hanging" in window.statusBar().currentMessage()
+        assert window.model.edit("shading.glint_shininess", 21.0)  # the editor goes on
+        with finished_signal(vr, qtbot) as finished:
+            qtbot.mouseClick(vr.button, Qt.MouseButton.LeftButton)
+            assert vr.state_label.text() == "Closing…"
+    finally:
+        try:
+            os.kill(pid, signal.SIGCONT)
+        except ProcessLookupError:
+            pass
+    status, message = finished.args
+    assert status == -signal.SIGKILL  # SIGTERM waits on a stopped process; SIGKILL does not
+    assert "did not quit when asked" in message
+    qtbot.waitUntil(lambda: vr.message_box is not None and vr.message_box.isVisible())
+    assert vr.action.text() == START_TEXT
+
+
+@pytest.mark.slow
 def test_closing_the_editor_asks_the_viewer_to_quit_first(vr, window, qtbot):
     start_desktop(vr, qtbot)
     with finished_signal(vr, qtbot) as finished:
