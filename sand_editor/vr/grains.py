@@ -17,6 +17,17 @@ import moderngl
 
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
+from sand_editor.vr.glwindow import finish_without_gil
+
+
+class _OffLoopMaterial(SandMaterial):
+    """A material whose update lets the frame loop run while the new grains are drawn: the
+    build step reads a texture back (a wait that holds Python's lock), so the grains queued
+    before it are finished first with the lock released."""
+
+    def _build_textures(self, preset: Preset) -> None:
+        finish_without_gil()
+        super()._build_textures(preset)
 
 
 @dataclass
@@ -104,8 +115,18 @@ class GrainWorker:
             self._start_error = exc
             self._started.set()
             return
-        self._started.set()
         materials: list[SandMaterial] = []
+        try:
+            # Both materials are made now, before the first frame: making one compiles its
+            # programs and computes its ripple maps, half a second that would stall frames.
+            for _ in range(2):
+                materials.append(_OffLoopMaterial(ctx, self._texture_size))
+            self._spare.extend(materials)
+        except BaseException as exc:
+            self._start_error = exc
+            self._started.set()
+            return
+        self._started.set()
         try:
             while True:
                 job = self._requests.get()
@@ -117,13 +138,13 @@ class GrainWorker:
                 preset, seq, received = job
                 if self._spare:
                     material = self._spare.pop()
-                else:
-                    material = SandMaterial(ctx, self._texture_size)
+                else:  # both taken: the one on screen comes back with the next swap
+                    material = _OffLoopMaterial(ctx, self._texture_size)
                     materials.append(material)
                 try:
                     material.update(preset)
                     # Everything written must be visible to the drawing context before use.
-                    ctx.finish()
+                    finish_without_gil()
                 except Exception as exc:  # a preset the generator rejects keeps the old one
                     self._spare.append(material)
                     self._ready.put(ReadyMaterial(None, preset, seq, received, str(exc)))

@@ -27,6 +27,7 @@ from sand_editor.vr.actions import (
     apply_command,
     commands_from_input,
 )
+from sand_editor.vr.glwindow import finish_without_gil
 from sand_editor.vr.grains import GrainWorker
 from sand_editor.vr.link import LinkError, check_time_fields
 from sand_editor.vr.workbench import Workbench
@@ -185,6 +186,7 @@ class FrameLoop:
                 stats.states.append(state)
                 self.link.send(type="state", state=state)
             self._handle_link()
+            regenerating = self.pending is not None or self.worker.busy
             frame = backend.wait_frame()
             if frame is None:
                 time.sleep(0.005)
@@ -196,7 +198,7 @@ class FrameLoop:
             backend.end_frame(frame, rendered=eye_ms is not None)
             now = time.perf_counter()
             stats.submit_ms.append((now - submit_start) * 1e3)
-            self._after_submit(now, frame)
+            self._after_submit(now, frame, regenerating)
             if stats.frames_submitted == WARM_UP_FRAMES:
                 self.resources["after_warm_up"] = self._resources()
                 # Counting GL objects is the report's own work: not a gap between frames.
@@ -236,7 +238,7 @@ class FrameLoop:
                 self.workbench.draw(
                     self.ctx, camera, viewport, self.controls, self.presets[self._index()][0], rays
                 )
-                self.ctx.finish()
+                finish_without_gil()
                 if screenshot:
                     images.append(_read(target, viewport))
             eye_ms.append((time.perf_counter() - start) * 1e3)
@@ -259,7 +261,7 @@ class FrameLoop:
         eye_keys = {self.renderer.terrain_level_of_detail(c.eye) for c in cameras}
         stats.eye_lod_disagreements += len(eye_keys) > 1
 
-    def _after_submit(self, now: float, frame: Frame) -> None:
+    def _after_submit(self, now: float, frame: Frame, regenerating: bool) -> None:
         stats = self.stats
         stats.frames_submitted += 1
         if stats.last_submit is not None:
@@ -267,7 +269,7 @@ class FrameLoop:
             stats.gaps_ms.append(gap)
             if gap >= max(stats.gaps_ms):
                 stats.max_gap_frame = stats.frames_submitted
-            if self.pending is not None or self.worker.busy:
+            if regenerating or self.pending is not None or self.worker.busy:
                 stats.regenerating_gaps_ms.append(gap)
         stats.last_submit = now
         if not self.ready_sent:

@@ -10,7 +10,7 @@ import tempfile
 import traceback
 from pathlib import Path
 
-from sand_editor.vr.errors import GraphicsError, ViewerError
+from sand_editor.vr.errors import GraphicsError, NoHeadsetError, ViewerError
 from sand_editor.vr.link import EXIT_GRAPHICS, EXIT_INTERRUPTED, EXIT_OK, NullLink, StdioLink
 from sand_editor.vr.loop import FrameLoop, ViewerOptions
 
@@ -31,6 +31,11 @@ def run_viewer(
         loop = FrameLoop(backend, backend.windows, link, options)
         loop.start()
         loop.run()
+        if getattr(backend, "lost", False):
+            raise NoHeadsetError(
+                "the OpenXR runtime ended the session (LOSS_PENDING): the headset or the "
+                "runtime went away; reconnect it and start the viewer again"
+            )
         report = loop.report()
     except ViewerError as exc:
         status = exc.status

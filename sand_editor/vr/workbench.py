@@ -26,16 +26,31 @@ PANEL_TILT_DEG = 25.0  # leaning back, towards the sky
 PANEL_PIXELS = (768, 432)
 RAY_LENGTH_M = 3.0
 
-# Buttons in panel coordinates (u right, v up, 0..1): name → (u0, v0, u1, v1, label, command).
-_ROW = (0.04, 0.2)
+# Buttons in panel coordinates (u right, v up, 0..1), one row along the bottom edge:
+# name → (u0, v0, u1, v1, label, command).
+_BUTTON_ROW = [
+    ("earlier", "-1 h", Command("scrub", -1.0)),
+    ("later", "+1 h", Command("scrub", 1.0)),
+    ("play", "play", Command("play_pause")),
+    ("slower", "slower", Command("speed_step", -1)),
+    ("faster", "faster", Command("speed_step", 1)),
+    ("sand", "sand >", Command("next_preset")),
+    ("lambert", "Lambert", Command("toggle_lambert")),
+]
+_ROW_V = (0.04, 0.21)
+_ROW_U = (0.015, 0.985)
+_GAP_U = 0.008
+_WIDTH_U = (_ROW_U[1] - _ROW_U[0] - _GAP_U * (len(_BUTTON_ROW) - 1)) / len(_BUTTON_ROW)
 BUTTONS = {
-    "earlier": (0.02, *_ROW, 0.15, "−1 h", Command("scrub", -1.0)),
-    "later": (0.16, _ROW[0], 0.29, _ROW[1], "+1 h", Command("scrub", 1.0)),
-    "play": (0.30, _ROW[0], 0.46, _ROW[1], "play", Command("play_pause")),
-    "slower": (0.47, _ROW[0], 0.58, _ROW[1], "slower", Command("speed_step", -1)),
-    "faster": (0.59, _ROW[0], 0.70, _ROW[1], "faster", Command("speed_step", 1)),
-    "sand": (0.71, _ROW[0], 0.84, _ROW[1], "sand ▸", Command("next_preset")),
-    "lambert": (0.85, _ROW[0], 0.98, _ROW[1], "Lambert", Command("toggle_lambert")),
+    name: (
+        _ROW_U[0] + i * (_WIDTH_U + _GAP_U),
+        _ROW_V[0],
+        _ROW_U[0] + i * (_WIDTH_U + _GAP_U) + _WIDTH_U,
+        _ROW_V[1],
+        label,
+        command,
+    )
+    for i, (name, label, command) in enumerate(_BUTTON_ROW)
 }
 
 
@@ -174,30 +189,39 @@ class Workbench:
 
     # ---- drawing ---------------------------------------------------------------------------
 
+    def panel_text(self, controls: ViewerControls, preset_name: str) -> tuple:
+        """What the panel shows: it is drawn again only when this changes."""
+        minutes = int(math.floor((controls.hours % 24.0) * 60.0)) % (24 * 60)
+        return (
+            f"{minutes // 60:02d}:{minutes % 60:02d}",
+            "playing" if controls.playing else "paused",
+            _speed_text(controls.day_speed),
+            f"sand: {preset_name}",
+            f"mode: {controls.mode}",
+            "pause" if controls.playing else "play",
+            tuple(sorted(name for name in self.hovered.values() if name)),
+        )
+
     def panel_image(self, controls: ViewerControls, preset_name: str) -> Image.Image:
         """The panel as an RGB image (top row first)."""
+        clock, state, speed, sand, mode, play, hovered = self.panel_text(controls, preset_name)
         width, height = PANEL_PIXELS
         image = Image.new("RGB", PANEL_PIXELS, (28, 24, 20))
         draw = ImageDraw.Draw(image)
-        big, small = _font(64), _font(30)
-        hours = controls.hours % 24.0
-        clock = f"{int(hours):02d}:{int(round(hours % 1 * 60)) % 60:02d}"
-        draw.text((28, 20), clock, font=big, fill=(255, 236, 200))
-        state = "playing" if controls.playing else "paused"
-        draw.text((260, 26), f"{state}, {_speed_text(controls.day_speed)}", font=small,
-                  fill=(230, 220, 200))  # fmt: skip
-        draw.text((28, 120), f"sand: {preset_name}", font=small, fill=(230, 220, 200))
-        draw.text((28, 170), f"mode: {controls.mode}", font=small, fill=(230, 220, 200))
-        hovered = {name for name in self.hovered.values() if name}
+        big, small, label_font = _font(96), _font(40), _font(24)
+        text_colour = (230, 220, 200)
+        draw.text((28, 12), clock, font=big, fill=(255, 236, 200))
+        draw.text((330, 24), state, font=small, fill=text_colour)
+        draw.text((330, 70), speed, font=small, fill=text_colour)
+        draw.text((28, 150), sand, font=small, fill=text_colour)
+        draw.text((28, 205), mode, font=small, fill=text_colour)
         for name, (u0, v0, u1, v1, label, _command) in BUTTONS.items():
-            if name == "play":
-                label = "pause" if controls.playing else "play"
+            label = play if name == "play" else label
             box = (u0 * width, (1 - v1) * height, u1 * width, (1 - v0) * height)
             fill = (214, 160, 80) if name in hovered else (70, 60, 50)
             draw.rounded_rectangle(box, radius=10, fill=fill, outline=(150, 130, 100), width=2)
-            text_width = draw.textlength(label, font=_font(24))
-            draw.text(((box[0] + box[2] - text_width) / 2, box[1] + 22), label, font=_font(24),
-                      fill=(255, 255, 255))  # fmt: skip
+            left = (box[0] + box[2] - draw.textlength(label, font=label_font)) / 2
+            draw.text((left, box[1] + 20), label, font=label_font, fill=(255, 255, 255))
         return image
 
     def draw(
@@ -213,7 +237,7 @@ class Workbench:
         framebuffer's ``viewport``."""
         if self._ctx is None:
             self._create(ctx)
-        key = (controls, preset_name, tuple(sorted(n for n in self.hovered.values() if n)))
+        key = self.panel_text(controls, preset_name)
         if key != self._panel_key:
             image = self.panel_image(controls, preset_name).transpose(Image.FLIP_TOP_BOTTOM)
             self._texture.write(image.tobytes())

@@ -123,6 +123,7 @@ class XrBackend:
         self._create_swapchains(render_scale)
         self._create_actions()
         self._running = False
+        self.lost = False
         self._state = "IDLE"
         self._focused = False
         self._exit_requested = False
@@ -239,7 +240,7 @@ class XrBackend:
                 return entered
             kind = xr.StructureType(event.type)
             if kind == xr.StructureType.EVENT_DATA_INSTANCE_LOSS_PENDING:
-                self.exiting = True
+                self._lose()
                 entered.append("INSTANCE_LOSS_PENDING")
                 continue
             if kind != xr.StructureType.EVENT_DATA_SESSION_STATE_CHANGED:
@@ -258,10 +259,18 @@ class XrBackend:
             elif state == xr.SessionState.STOPPING:
                 xr.end_session(self.session)
                 self._running = False
-            elif state in (xr.SessionState.EXITING, xr.SessionState.LOSS_PENDING):
+            elif state == xr.SessionState.LOSS_PENDING:
+                self._lose()
+            elif state == xr.SessionState.EXITING:
                 self._running = False
                 self.exiting = True
             self._focused = state == xr.SessionState.FOCUSED
+
+    def _lose(self) -> None:
+        """The runtime is taking the session away (headset unplugged, runtime stopping)."""
+        self.lost = True
+        self._running = False
+        self.exiting = True
 
     def request_exit(self) -> None:
         if self._exit_requested:
@@ -289,8 +298,15 @@ class XrBackend:
     def wait_frame(self) -> Frame | None:
         if not self._running:
             return None
-        frame_state = xr.wait_frame(self.session)
-        xr.begin_frame(self.session)
+        try:
+            frame_state = xr.wait_frame(self.session)
+        except xr.SessionLossPending:
+            self._lose()
+            return None
+        try:
+            xr.begin_frame(self.session)
+        except xr.FrameDiscarded:
+            pass  # the previous frame was dropped; this one has begun all the same
         self._frame_state = frame_state
         display_time = frame_state.predicted_display_time
         eyes = []

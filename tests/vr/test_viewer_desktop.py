@@ -18,13 +18,13 @@ from PIL import Image
 
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
-from sand_editor.vr.link import EXIT_BAD_INPUT, EXIT_NO_RUNTIME, encode
+from sand_editor.vr.link import EXIT_BAD_INPUT, EXIT_GRAPHICS, EXIT_NO_RUNTIME, encode
 
 REPO = Path(__file__).resolve().parents[2]
 OPENING = ["IDLE", "READY", "SYNCHRONIZED", "VISIBLE", "FOCUSED"]
 CLOSING = ["VISIBLE", "SYNCHRONIZED", "STOPPING", "IDLE", "EXITING"]
 
-pytestmark = pytest.mark.skipif(not os.environ.get("DISPLAY"), reason="needs an X display")
+needs_display = pytest.mark.skipif(not os.environ.get("DISPLAY"), reason="needs an X display")
 
 
 def _env(**extra) -> dict:
@@ -43,6 +43,7 @@ def _vr(*args, timeout=240, **env) -> subprocess.CompletedProcess:
     )
 
 
+@needs_display
 def test_desktop_report_and_stereo_screenshot(tmp_path):
     report_path, shot = tmp_path / "report.json", tmp_path / "shot.png"
     result = _vr(
@@ -125,6 +126,17 @@ def test_bad_arguments_exit_with_status_1_or_2_naming_them(args, needle):
     assert needle in result.stderr
 
 
+def test_no_display_gives_exit_status_5_and_says_so():
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = subprocess.run(
+        [sys.executable, "-m", "sand_editor", "vr", "--desktop", "--frames", "1"],
+        cwd=REPO, capture_output=True, text=True, timeout=120,
+        env={**env, "PYTHONPATH": str(REPO)},
+    )  # fmt: skip
+    assert result.returncode == EXIT_GRAPHICS, result.stderr
+    assert "no X display" in result.stderr
+
+
 class _Viewer:
     """The viewer as the editor runs it: JSON lines in, JSON lines out."""
 
@@ -177,6 +189,7 @@ def _edited(name: str, **changes) -> dict:
     return preset.to_dict()
 
 
+@needs_display
 def test_stdio_link_applies_an_edit_and_a_time_change_and_quits_cleanly(tmp_path):
     report_path = tmp_path / "report.json"
     viewer = _Viewer("--desktop", "--render-scale", "0.2", "--report", str(report_path))
@@ -220,6 +233,7 @@ def test_stdio_link_applies_an_edit_and_a_time_change_and_quits_cleanly(tmp_path
     assert len(report["errors"]) == 3  # the bad preset, the unknown type, the bad time
 
 
+@needs_display
 def test_eof_on_stdin_ends_the_viewer_cleanly():
     viewer = _Viewer("--desktop", "--render-scale", "0.1")
     try:
@@ -231,6 +245,7 @@ def test_eof_on_stdin_ends_the_viewer_cleanly():
         viewer.finish(timeout=5)
 
 
+@needs_display
 @pytest.mark.slow
 def test_soak_2000_frames_keep_gl_objects_and_memory_flat(tmp_path):
     """Long sessions with the day running and new grains arriving hold no more GL objects or

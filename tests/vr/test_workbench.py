@@ -54,6 +54,14 @@ def test_rays_that_miss_or_come_from_behind_press_nothing(bench):
     assert bench.aim("left", None) is None
 
 
+def test_buttons_lie_on_the_panel_without_overlapping():
+    boxes = sorted(b[:4] for b in BUTTONS.values())
+    for u0, v0, u1, v1 in boxes:
+        assert 0 <= u0 < u1 <= 1 and 0 <= v0 < v1 <= 1
+    for left, right in zip(boxes, boxes[1:], strict=False):
+        assert left[2] < right[0]
+
+
 def test_button_at_between_buttons_is_none():
     assert button_at(0.5, 0.9) is None
 
@@ -67,6 +75,21 @@ def test_panel_shows_time_and_hovered_button(bench):
     assert np.any(plain != hovered)
     other_time = np.asarray(bench.panel_image(ViewerControls(hours=4.0), "red-desert"))
     assert np.any(other_time[:100] != np.asarray(bench.panel_image(ViewerControls(), "x"))[:100])
+
+
+@pytest.mark.parametrize(
+    "hours,clock", [(0.0, "00:00"), (16.999, "16:59"), (23.9999, "23:59"), (24.0, "00:00")]
+)
+def test_the_clock_reads_the_current_minute(bench, hours, clock):
+    assert bench.panel_text(ViewerControls(hours=hours), "x")[0] == clock
+
+
+def test_the_panel_is_drawn_again_only_when_what_it_shows_changes(bench):
+    same_minute = [ViewerControls(hours=10.0 + i * 0.001) for i in range(5)]
+    assert len({bench.panel_text(c, "x") for c in same_minute}) == 1
+    assert bench.panel_text(ViewerControls(hours=10.02), "x") != bench.panel_text(
+        ViewerControls(hours=10.0), "x"
+    )
 
 
 def test_box_faces_point_outwards_with_tangents_in_the_face():
