@@ -20,7 +20,7 @@ import time
 from functools import partial
 from pathlib import Path
 
-from PySide6.QtCore import QObject, QProcess, QProcessEnvironment, QTimer, Signal
+from PySide6.QtCore import QEvent, QObject, QProcess, QProcessEnvironment, QTimer, Signal
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import (
     QApplication,
@@ -567,6 +567,7 @@ class VrControls(QObject):
         app = QApplication.instance()
         if app is not None:
             app.aboutToQuit.connect(self.link.shutdown)
+        window.installEventFilter(self)  # sees the window's close before the window does
         self._attach_panel()
         self._show_state()
 
@@ -590,15 +591,16 @@ class VrControls(QObject):
         self.link.start(self.window.model.preset, desktop=desktop, scene=start_scene)
         self._show_state()
 
-    def close_window(self) -> bool:
-        """True when the window may close now; otherwise the viewer is asked to quit and the
-        window closes itself once the viewer has exited."""
-        if not self.link.running:
+    def eventFilter(self, watched: QObject, event: QEvent) -> bool:
+        # Closing the window with the viewer running asks the viewer to quit first; the window
+        # closes again (asking about unsaved changes as usual) once the viewer has exited.
+        if watched is self.window and event.type() == QEvent.Type.Close and self.link.running:
+            event.ignore()
+            self._close_window_after = True
+            self.link.stop()
+            self._show_state()
             return True
-        self._close_window_after = True
-        self.link.stop()
-        self._show_state()
-        return False
+        return super().eventFilter(watched, event)
 
     # -- what the button and label show -------------------------------------------------------
 

@@ -153,8 +153,7 @@ class EditorWindow(QMainWindow):
         return answer == QMessageBox.StandardButton.Discard
 
     def closeEvent(self, event: QCloseEvent) -> None:
-        # A running VR viewer is asked to quit first; the window closes again once it has.
-        if self.vr.close_window() and self.maybe_save():
+        if self.maybe_save():
             event.accept()
         else:
             event.ignore()
