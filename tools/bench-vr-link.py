@@ -6,7 +6,7 @@ each from the edit to the viewer's "applied" answer. Generation edits make new g
 viewer; their generation time, measured apart on a headless context at the viewer's texture
 size, is subtracted to give the link's own share. Needs a display (run it under xvfb-run).
 
-    xvfb-run -a .venv/bin/python tools/bench-vr-link.py [--edits N] [--render-scale S]
+    xvfb-run -a .venv/bin/python tools/bench-vr-link.py [--edits N] [--render-scale S ...]
         [--json FILE]
 """
 
@@ -99,10 +99,74 @@ def _summary(values: list[float]) -> dict:
     }
 
 
+def _run_viewer(app, window, render_scale: float, edits: int) -> tuple[dict, dict]:
+    """Start the desktop preview from the window, time the edits, close it."""
+    link = window.vr.link
+    link.extra_args = ("--render-scale", f"{render_scale:g}")
+    window.vr.start(desktop=True)
+    _wait(app, lambda: link.is_ready or not link.running, READY_TIMEOUT_S, "the first frame")
+    if not link.is_ready:
+        raise SystemExit("bench-vr-link: the viewer did not start:\n" + link.stderr_tail())
+    info = link.ready_info
+    try:
+        return info, _measure_link(app, window, ("shading", "generation"), edits)
+    finally:
+        link.stop()
+        _wait(app, lambda: not link.running, 10.0, "the viewer to close")
+
+
+def _table_rows(info: dict, scale: float, link_rows: dict, generation_ms: float) -> list[dict]:
+    eye = info["views"][0]
+    table = []
+    for kind, rows in link_rows.items():
+        total = [row["edit_to_screen_ms"] for row in rows]
+        viewer = [row["viewer_ms"] for row in rows]
+        subtract = generation_ms if kind == "generation" else 0.0
+        table.append(
+            {
+                "render_scale": scale,
+                "eye": f"{eye['width']}×{eye['height']}",
+                "edit": kind,
+                "edits": len(rows),
+                "edit_to_screen_ms": _summary(total),
+                "edit_to_viewer_ms": _summary([t - v for t, v in zip(total, viewer, strict=True)]),
+                "in_viewer_ms": _summary(viewer),
+                "generation_ms": subtract,
+                "minus_generation_ms": _summary([t - subtract for t in total]),
+            }
+        )
+    return table
+
+
+def _print_table(system: str, table: list[dict]) -> None:
+    print(f"viewer: {system}, grains {VIEWER_TEXTURE_SIZE}²; median / p90 ms")
+    print(
+        "| eye | edit | edits | edit → on screen | editor → viewer | in the viewer | "
+        "generation (apart) | on screen minus generation |"
+    )
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for row in table:
+        cells = [
+            f"{row[key]['median']:.0f} / {row[key]['p90']:.0f}"
+            for key in ("edit_to_screen_ms", "edit_to_viewer_ms", "in_viewer_ms")
+        ]
+        net = row["minus_generation_ms"]
+        print(
+            f"| {row['eye']} | {row['edit']} | {row['edits']} | {' | '.join(cells)} | "
+            f"{row['generation_ms']:.0f} | **{net['median']:.0f}** / {net['p90']:.0f} |"
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--edits", type=int, default=10, help="edits of each kind")
-    parser.add_argument("--render-scale", default="0.5", help="the viewer's eye size factor")
+    parser.add_argument(
+        "--render-scale",
+        type=float,
+        nargs="+",
+        default=[0.1, 0.5],
+        help="the viewer's eye size factors to run (1 = 480×360 per eye)",
+    )
     parser.add_argument("--json", help="write the results to this file")
     args = parser.parse_args(argv)
 
@@ -120,70 +184,23 @@ def main(argv: list[str] | None = None) -> int:
     window = EditorWindow(Preset.load(bundled_preset("paper-default")))
     window.show()
     _wait(app, lambda: window.preview.textures is not None, READY_TIMEOUT_S, "the editor")
-    window.vr.link.extra_args = ("--render-scale", args.render_scale)
-    window.vr.start(desktop=True)
-    _wait(
-        app,
-        lambda: window.vr.link.is_ready or not window.vr.link.running,
-        READY_TIMEOUT_S,
-        "the viewer's first frame",
-    )
-    if not window.vr.link.is_ready:
-        raise SystemExit(
-            "bench-vr-link: the viewer did not start:\n" + window.vr.link.stderr_tail()
-        )
-    info = window.vr.link.ready_info
-    try:
-        link_rows = _measure_link(app, window, ("shading", "generation"), args.edits)
-    finally:
-        window.vr.link.stop()
-        _wait(app, lambda: not window.vr.link.running, 10.0, "the viewer to close")
+    runs = [(scale, *_run_viewer(app, window, scale, args.edits)) for scale in args.render_scale]
     generation = _generation_ms(window.model.preset, args.edits)
-
-    gen_median = statistics.median(generation)
-    table = []
-    for kind, rows in link_rows.items():
-        total = [row["edit_to_screen_ms"] for row in rows]
-        viewer = [row["viewer_ms"] for row in rows]
-        subtract = gen_median if kind == "generation" else 0.0
-        table.append(
-            {
-                "edit": kind,
-                "edits": len(rows),
-                "edit_to_screen_ms": _summary(total),
-                "in_viewer_ms": _summary(viewer),
-                "edit_to_viewer_ms": _summary([t - v for t, v in zip(total, viewer, strict=True)]),
-                "generation_ms": subtract,
-                "minus_generation_ms": _summary([t - subtract for t in total]),
-            }
-        )
-    eye = info["views"][0]
-    print(
-        f"viewer: {info['system']}, eyes {eye['width']}×{eye['height']}, "
-        f"grains {VIEWER_TEXTURE_SIZE}²; median / p90 ms"
-    )
-    print(
-        "| edit | edits | edit → on screen | editor → viewer | in the viewer | generation "
-        "(apart) | on screen minus generation |"
-    )
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for row in table:
-        cells = [
-            f"{row[key]['median']:.0f} / {row[key]['p90']:.0f}"
-            for key in ("edit_to_screen_ms", "edit_to_viewer_ms", "in_viewer_ms")
-        ]
-        net = row["minus_generation_ms"]
-        print(
-            f"| {row['edit']} | {row['edits']} | {' | '.join(cells)} | "
-            f"{row['generation_ms']:.0f} | {net['median']:.0f} / {net['p90']:.0f} |"
-        )
+    table = [
+        row
+        for scale, info, link_rows in runs
+        for row in _table_rows(info, scale, link_rows, statistics.median(generation))
+    ]
+    _print_table(runs[0][1]["system"], table)
     if args.json:
         document = {
-            "viewer": info,
-            "render_scale": float(args.render_scale),
+            "viewer": runs[0][1]["system"],
             "texture_size": VIEWER_TEXTURE_SIZE,
             "generation_ms": generation,
-            "rows": link_rows,
+            "runs": [
+                {"render_scale": scale, "ready": info, "edits": link_rows}
+                for scale, info, link_rows in runs
+            ],
             "summary": table,
         }
         Path(args.json).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
