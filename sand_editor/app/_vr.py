@@ -56,6 +56,7 @@ QUIT_GRACE_MS = 3000  # after "quit", before SIGTERM
 TERMINATE_GRACE_MS = 2000  # after SIGTERM, before SIGKILL
 STDERR_LINES_KEPT = 40
 STDERR_LINES_SHOWN = 6
+LATENCIES_KEPT = 100
 STATUS_MESSAGE_MS = 8000
 VR_SHORTCUT = "Ctrl+Shift+V"
 START_TEXT = "View in VR"
@@ -182,9 +183,9 @@ class VrLink(QObject):
         self.stderr_lines: collections.deque[str] = collections.deque(maxlen=STDERR_LINES_KEPT)
         self.seq = 0
         self.sent: collections.Counter[str] = collections.Counter()  # messages by type
-        # seq → perf_counter() of the edit that the message carries, for edit-to-screen latency.
+        # seq → ms from the edit to its "applied", for the latest LATENCIES_KEPT presets shown.
         self.latency_ms: dict[int, float] = {}
-        self._edit_times: dict[int, float] = {}
+        self._edit_times: dict[int, float] = {}  # seq → perf_counter() of the edit, until shown
         self._pending_preset: Preset | None = None
         self._pending_since = 0.0
         self._last_flush = 0.0  # perf_counter() of the last send
@@ -217,6 +218,11 @@ class VrLink(QObject):
     @property
     def is_ready(self) -> bool:
         return self.ready_info is not None
+
+    @property
+    def unanswered(self) -> int:
+        """Presets sent and neither shown nor superseded yet."""
+        return len(self._edit_times)
 
     @property
     def last_sent_preset(self) -> Preset | None:
@@ -480,6 +486,11 @@ class VrLink(QObject):
             edited = self._edit_times.pop(seq, None)
             if edited is not None:
                 self.latency_ms[seq] = (time.perf_counter() - edited) * 1000.0
+            # The viewer skips presets superseded before it started on them: never shown.
+            for skipped in [s for s in self._edit_times if s < seq]:
+                del self._edit_times[skipped]
+            for oldest in list(self.latency_ms)[: max(0, len(self.latency_ms) - LATENCIES_KEPT)]:
+                del self.latency_ms[oldest]
             self.applied.emit(seq, float(message.get("ms", float("nan"))))
         elif kind == "time":
             try:

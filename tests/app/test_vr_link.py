@@ -3,6 +3,7 @@ started from the real window under Xvfb, its answers, and every way it can go wr
 
 from __future__ import annotations
 
+import gc
 import os
 import shlex
 import signal
@@ -18,6 +19,7 @@ from xinput import XKeyboard
 
 from sand_editor.app._view3d import format_time
 from sand_editor.app._vr import (
+    LATENCIES_KEPT,
     PYTHON_VARIABLE,
     SEND_INTERVAL_MS,
     START_TEXT,
@@ -39,6 +41,9 @@ ANSWER_TIMEOUT_MS = 60_000
 SMALL_VIEWER = ("--render-scale", "0.25")
 # The viewer reads its keys once per frame; a frame can take a good part of a second here.
 KEY_HOLD_S = 1.0
+SOAK_ROUNDS = 7  # slider drags of 100 steps each
+# Some 50 presets are sent between the two counts: one object kept per message would show.
+SOAK_OBJECTS_ALLOWED = 25
 
 
 @pytest.fixture
@@ -311,6 +316,37 @@ def test_a_viewer_that_hangs_is_reported_and_ended_by_stop(vr, window, qtbot):
     assert "did not quit when asked" in message
     qtbot.waitUntil(lambda: vr.message_box is not None and vr.message_box.isVisible())
     assert vr.action.text() == START_TEXT
+
+
+@pytest.mark.slow
+def test_a_long_session_of_drags_keeps_the_link_flat(vr, window, qtbot):
+    start_desktop(vr, qtbot)
+    vr.link.answer_timeout_ms = 10 * ANSWER_TIMEOUT_MS  # a busy machine is not a hang here
+    model = window.model
+
+    def drag(round_: int) -> None:
+        # The model's change signal, as a drag emits it; reset keeps the undo history (not what
+        # is measured here) empty.
+        for step in range(100):
+            value = 5.0 + (round_ * 100 + step) % 50
+            model.reset(model.preset.replace(**{"shading.glint_shininess": value}))
+            qtbot.wait(5)
+        qtbot.waitUntil(lambda: vr.link.last_sent_preset == window.model.preset)
+        seq = vr.link.seq
+        qtbot.waitUntil(lambda: seq in vr.link.latency_ms, timeout=ANSWER_TIMEOUT_MS)
+
+    # Live Python objects after a first stretch of drags and again after more: flat.
+    counts = []
+    for round_ in range(SOAK_ROUNDS):
+        drag(round_)
+        if round_ in (SOAK_ROUNDS // 2, SOAK_ROUNDS - 1):
+            gc.collect()
+            counts.append(len(gc.get_objects()))
+    assert counts[1] - counts[0] < SOAK_OBJECTS_ALLOWED, f"{counts[1] - counts[0]} objects more"
+    assert vr.link.seq > 5 * SOAK_ROUNDS  # the drags were streamed, not sent once at the end
+    assert vr.link.unanswered == 0  # superseded presets are not waited for
+    assert len(vr.link.latency_ms) <= LATENCIES_KEPT
+    assert vr.link.responding and vr.link.running
 
 
 @pytest.mark.slow
