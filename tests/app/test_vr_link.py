@@ -175,6 +175,21 @@ def test_a_viewer_that_never_shows_anything_is_stopped_with_a_message(vr, qtbot,
     assert vr.action.text() == START_TEXT
 
 
+def test_no_headset_names_it_and_offers_the_desktop_preview(vr, qtbot, monkeypatch):
+    # The viewer's own exit for a runtime without a head-mounted display; no runtime here can
+    # be made to lack one, so a process ends the way the viewer does then.
+    monkeypatch.setenv(WRAPPER_VARIABLE, "sh -c 'echo no head-mounted display >&2; exit 4' --")
+    with finished_signal(vr, qtbot) as finished:
+        vr.start()
+    assert finished.args[0] == EXIT_NO_HEADSET
+    qtbot.waitUntil(lambda: vr.message_box is not None and vr.message_box.isVisible())
+    assert vr.message_box.windowTitle() == "No VR headset"
+    assert "Connect the headset and turn it on" in vr.message_box.text()
+    assert vr.desktop_button is not None
+    vr.message_box.button(QMessageBox.StandardButton.Close).click()
+    assert not vr.link.running  # declining starts nothing
+
+
 # -- the real viewer ------------------------------------------------------------------------------
 
 
@@ -347,6 +362,25 @@ def test_a_long_session_of_drags_keeps_the_link_flat(vr, window, qtbot):
     assert vr.link.unanswered == 0  # superseded presets are not waited for
     assert len(vr.link.latency_ms) <= LATENCIES_KEPT
     assert vr.link.responding and vr.link.running
+
+
+@pytest.mark.slow
+def test_time_set_in_vr_before_the_3d_tab_exists_shows_when_it_opens(vr, window, qtbot):
+    assert window.preview.view3d is None
+    start_desktop(vr, qtbot)
+    keyboard = XKeyboard()
+    try:
+        viewer_window = viewer_window_of(vr, keyboard, qtbot)
+        with qtbot.waitSignal(
+            vr.link.time, timeout=ANSWER_TIMEOUT_MS, check_params_cb=lambda f: "hours" in f
+        ):
+            keyboard.press(viewer_window, "Left", hold_s=KEY_HOLD_S)
+    finally:
+        keyboard.close()
+    qtbot.wait(1000)  # the last reports of the scrub
+    panel = open_3d(window, qtbot)
+    assert panel.view.time_hours < 10.0  # scrubbed back from the 3D view's 10:00
+    assert panel.time_label.text() == format_time(panel.view.time_hours)
 
 
 @pytest.mark.slow
