@@ -20,7 +20,7 @@ from sand_editor.app._controls import ControlsPanel
 from sand_editor.app._model import PresetModel
 from sand_editor.app._preview import PreviewPanel
 from sand_editor.app._regenerator import Regenerator
-from sand_editor.app._vr import VrControls
+from sand_editor.app._vr_controls import VrControls
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir

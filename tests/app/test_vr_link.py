@@ -22,12 +22,11 @@ from sand_editor.app._vr import (
     LATENCIES_KEPT,
     PYTHON_VARIABLE,
     SEND_INTERVAL_MS,
-    START_TEXT,
-    STOP_TEXT,
     WRAPPER_VARIABLE,
     exit_meaning,
     viewer_command,
 )
+from sand_editor.app._vr_controls import START_TEXT, STOP_TEXT
 from sand_editor.vr.link import EXIT_NO_HEADSET, EXIT_NO_RUNTIME, EXIT_OK
 
 pytestmark = pytest.mark.qt
