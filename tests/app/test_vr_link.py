@@ -174,6 +174,20 @@ def test_a_viewer_that_never_shows_anything_is_stopped_with_a_message(vr, qtbot,
     assert vr.action.text() == START_TEXT
 
 
+def test_lines_that_are_not_the_protocol_are_reported_not_raised(vr, qtbot, monkeypatch):
+    lines = ["hello", '{"type": "nope"}', '{"type": "applied", "seq": "x"}', '{"type"', "[1]"]
+    script = "; ".join(f"echo {shlex.quote(line)}" for line in lines)
+    monkeypatch.setenv(WRAPPER_VARIABLE, f"sh -c {shlex.quote(script + '; exit 0')} --")
+    errors = []
+    vr.link.error.connect(errors.append)
+    with finished_signal(vr, qtbot):
+        vr.start()
+    assert len(errors) == len(lines)
+    assert all("not the link protocol" in error for error in errors)
+    assert "unknown message type 'nope'" in errors[1]
+    assert not vr.link.running and vr.action.text() == START_TEXT
+
+
 def test_no_headset_names_it_and_offers_the_desktop_preview(vr, qtbot, monkeypatch):
     # The viewer's own exit for a runtime without a head-mounted display; no runtime here can
     # be made to lack one, so a process ends the way the viewer does then.
