@@ -179,17 +179,33 @@ def _parser() -> argparse.ArgumentParser:
     vr.add_argument("preset", nargs="?", help="preset file or bundled preset name")
     vr.add_argument("--desktop", action="store_true", help="both eyes side by side in a window")
     vr.add_argument("--control", choices=["stdio"], help="take commands from the editor on stdin")
-    vr.add_argument("--frames", type=int, help="submit this many frames, then exit")
-    vr.add_argument("--report", help="write what ran and how fast as JSON to this file")
+    vr.add_argument("--frames", type=int, metavar="N", help="submit this many frames, then exit")
     vr.add_argument(
-        "--render-scale", type=_render_scale, default=1.0, help="× the recommended eye size"
+        "--report", metavar="FILE.json", help="write what ran and how fast as JSON to this file"
     )
-    vr.add_argument("--time", default="10:00", help="time of day to start at, HH:MM")
     vr.add_argument(
-        "--day-speed", type=_day_speed, default=0.0, help="simulated hours per second (0: still)"
+        "--render-scale",
+        type=_render_scale,
+        default=1.0,
+        metavar="S",
+        help="× the recommended eye size",
+    )
+    vr.add_argument(
+        "--time", default="10:00", metavar="HH:MM", help="time of day to start at, HH:MM"
+    )
+    vr.add_argument(
+        "--day-speed",
+        type=_day_speed,
+        default=0.0,
+        metavar="H",
+        help="simulated hours per second (0: still)",
     )
     vr.add_argument("--mode", choices=MODES, default="full", help="what to show")
-    vr.add_argument("--screenshot", help="save both eyes of the last frame side by side (PNG)")
+    vr.add_argument(
+        "--screenshot",
+        metavar="FILE.png",
+        help="save both eyes of the last frame side by side (PNG)",
+    )
     vr.set_defaults(run=_cmd_vr)
 
     bench = sub.add_parser("bench", help="measure speed against error")

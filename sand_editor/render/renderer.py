@@ -119,7 +119,8 @@ class SandRenderer:
 
     def prepare_frame(self, head: Camera, show_sphere: bool | None = None) -> FrameScene:
         """The scene objects for one frame seen from ``head`` (for stereo, the point between
-        the eyes looking where the head looks); pass it to ``render`` for every eye."""
+        the eyes looking where the head looks); pass it to ``render`` for every eye. It holds
+        until the next ``prepare_frame``, which may replace the meshes it names."""
         objects = list(self._fixed_objects)
         if self.show_sphere if show_sphere is None else show_sphere:
             sphere = self._sphere(head)

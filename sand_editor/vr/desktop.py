@@ -38,6 +38,7 @@ class DesktopBackend:
 
     name = "desktop"
     floor_level = True
+    reference_space = "STAGE"  # the floor is y = 0, as in a headset's STAGE space
     swapchain_format = "window framebuffer (sRGB-encoded bytes)"
 
     def __init__(self, windows, size: tuple[int, int]) -> None:
@@ -74,8 +75,10 @@ class DesktopBackend:
         return entered
 
     def request_exit(self) -> None:
-        if self._state in ("FOCUSED", "VISIBLE", "SYNCHRONIZED", "READY") and not self._states:
+        if self._state == "FOCUSED" and not self._states:
             self._states = list(_CLOSING)
+        elif self._state is None:  # asked before the session began: nothing to stop
+            self._states = ["EXITING"]
 
     def interaction_profiles(self) -> dict[str, str | None]:
         return {"left": None, "right": "keyboard and mouse"}
@@ -99,7 +102,9 @@ class DesktopBackend:
             EyeView(head.translated(rotation[:, 0] * side * IPD_M / 2), self.fov)
             for side in (-1.0, 1.0)
         ]
-        return Frame(now, True, eyes, self._input(head))
+        start = time.perf_counter()
+        controls = self._input(head)
+        return Frame(now, True, eyes, controls, (time.perf_counter() - start) * 1e3)
 
     @contextmanager
     def eye_target(self, index: int):

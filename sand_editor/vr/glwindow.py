@@ -45,6 +45,8 @@ class GLWindows:
             glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
             glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE)
             glfw.window_hint(glfw.VISIBLE, glfw.TRUE if visible else glfw.FALSE)
+            # The eyes are laid out for this size: the preview keeps it.
+            glfw.window_hint(glfw.RESIZABLE, glfw.FALSE)
             glfw.window_hint(glfw.DOUBLEBUFFER, glfw.TRUE if visible else glfw.FALSE)
             self.window = glfw.create_window(size[0], size[1], title, None, None)
             if not self.window:

@@ -55,6 +55,7 @@ class Frame:
     should_render: bool
     eyes: list[EyeView]
     input: InputState = field(default_factory=InputState)
+    input_ms: float = 0.0  # reading the controls: the viewer's own work, part of the overhead
 
 
 class Backend(Protocol):
@@ -64,6 +65,7 @@ class Backend(Protocol):
     views: list[dict]  # per eye: width, height, fov (four angles)
     swapchain_format: str
     floor_level: bool  # tracking space y = 0 is the floor (STAGE)
+    reference_space: str  # STAGE or LOCAL
     exiting: bool
 
     def poll_events(self) -> list[str]: ...  # session states entered since the last call
@@ -91,6 +93,7 @@ class _Stats:
         self.eye_ms: list[float] = []
         self.overhead_ms: list[float] = []
         self.submit_ms: list[float] = []
+        self.wait_ms: list[float] = []
         self.gaps_ms: list[float] = []
         self.regenerating_gaps_ms: list[float] = []
         self.last_submit: float | None = None
@@ -138,6 +141,7 @@ class FrameLoop:
         self.pending_applied: tuple[int | None, float] | None = None
         self.resources: dict[str, dict] = {}
         self._builds_before_loop = 0
+        self.stop_requested = False  # set from a signal handler: end the session cleanly
 
     # ---- start and end -------------------------------------------------------------------
 
@@ -182,19 +186,24 @@ class FrameLoop:
         backend = self.backend
         stats = self.stats
         while not backend.exiting:
+            if self.stop_requested:
+                backend.request_exit()
             for state in backend.poll_events():
                 stats.states.append(state)
                 self.link.send(type="state", state=state)
             self._handle_link()
             regenerating = self.pending is not None or self.worker.busy
+            wait_start = time.perf_counter()
             frame = backend.wait_frame()
             if frame is None:
                 time.sleep(0.005)
                 continue
             loop_start = time.perf_counter()
+            stats.wait_ms.append((loop_start - wait_start) * 1e3 - frame.input_ms)
             eye_ms = self._frame(frame)
             submit_start = time.perf_counter()
-            stats.overhead_ms.append((submit_start - loop_start) * 1e3 - sum(eye_ms or ()))
+            own_ms = (submit_start - loop_start) * 1e3 - sum(eye_ms or ()) + frame.input_ms
+            stats.overhead_ms.append(own_ms)
             backend.end_frame(frame, rendered=eye_ms is not None)
             now = time.perf_counter()
             stats.submit_ms.append((now - submit_start) * 1e3)
@@ -443,13 +452,16 @@ class FrameLoop:
             "system": backend.system,
             "views": backend.views,
             "swapchain_format": backend.swapchain_format,
+            "reference_space": backend.reference_space,
             "interaction_profiles": backend.interaction_profiles(),
             "suggested_bindings": suggested,
             "frames_submitted": stats.frames_submitted,
             "frames_rendered": stats.frames_rendered,
             "eye_ms": _summary(stats.eye_ms),
             "frame_overhead_ms": _summary(stats.overhead_ms),
+            "wait_ms": _summary(stats.wait_ms),
             "submit_ms": _summary(stats.submit_ms),
+            "frame_gap_ms": _summary(stats.gaps_ms),
             "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
             "max_frame_gap_at_frame": stats.max_gap_frame,
             "max_frame_gap_while_regenerating_ms": round(

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 import tempfile
 import traceback
+from contextlib import contextmanager
 from pathlib import Path
 
 from sand_editor.vr.errors import GraphicsError, NoHeadsetError, ViewerError
@@ -24,25 +26,31 @@ def run_viewer(
 ) -> int:
     link = StdioLink() if control == "stdio" else NullLink()
     backend = loop = None
-    report: dict = {"backend": "desktop" if desktop else "xr", "errors": []}
+    errors: list[str] = []
+    report: dict = {"backend": "desktop" if desktop else "xr", "errors": errors}
     status = EXIT_OK
     try:
         backend = _desktop_backend(render_scale) if desktop else _xr_backend(render_scale)
         loop = FrameLoop(backend, backend.windows, link, options)
         loop.start()
-        loop.run()
+        with _stopping_on_signals(loop):
+            loop.run()
+        if loop.stop_requested:
+            status = EXIT_INTERRUPTED
+            loop.stats.errors.append("interrupted")
         if getattr(backend, "lost", False):
             raise NoHeadsetError(
                 "the OpenXR runtime ended the session (LOSS_PENDING): the headset or the "
                 "runtime went away; reconnect it and start the viewer again"
             )
-        report = loop.report()
+        if status == EXIT_OK:
+            report = loop.report()
     except ViewerError as exc:
         status = exc.status
         _fail(link, report, str(exc))
     except KeyboardInterrupt:
         status = EXIT_INTERRUPTED
-        report["errors"].append("interrupted")
+        errors.append("interrupted")
     except Exception as exc:  # a failure in the GL or runtime layers: reported, not hidden
         traceback.print_exc(file=sys.stderr)
         status = EXIT_GRAPHICS
@@ -50,7 +58,10 @@ def run_viewer(
     finally:
         if loop is not None:
             if status != EXIT_OK:
-                report = {**loop.report(), "errors": [*loop.stats.errors, *report["errors"]]}
+                try:
+                    report = {**loop.report(), "errors": [*loop.stats.errors, *errors]}
+                except Exception:  # noqa: BLE001 - the GL state may be what failed
+                    pass
             loop.close()
         if backend is not None:
             backend.close()
@@ -62,8 +73,24 @@ def run_viewer(
 
 def _fail(link, report: dict, message: str) -> None:
     print(f"sand-editor vr: error: {message}", file=sys.stderr)
-    report["errors"].append(message)
+    report["errors"].append(message)  # the same list as ``errors`` in run_viewer
     link.send(type="error", message=message)
+
+
+@contextmanager
+def _stopping_on_signals(loop):
+    """SIGINT and SIGTERM (Ctrl+C, or the editor terminating the viewer) end the session
+    cleanly: the runtime sees STOPPING and EXITING instead of a frozen frame."""
+
+    def stop(signum, frame):
+        loop.stop_requested = True
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _windows(size: tuple[int, int], visible: bool):

@@ -9,6 +9,7 @@ the runtime dropped a frame (the loop goes on), ``SessionLossPending`` means the
 from __future__ import annotations
 
 import ctypes
+import time
 from contextlib import contextmanager
 
 import xr
@@ -116,6 +117,7 @@ class XrBackend:
         space_type = (
             xr.ReferenceSpaceType.STAGE if self.floor_level else (xr.ReferenceSpaceType.LOCAL)
         )
+        self.reference_space = space_type.name
         self.space = xr.create_reference_space(
             self.session, xr.ReferenceSpaceCreateInfo(reference_space_type=space_type)
         )
@@ -328,8 +330,10 @@ class XrBackend:
                 self.views[index]["fov"] = fov.as_dict()
                 eyes.append(EyeView(_pose(view.pose), fov))
         self._projection_views = []
-        return Frame(display_time * 1e-9, bool(frame_state.should_render), eyes,
-                     self._input(display_time))  # fmt: skip
+        start = time.perf_counter()
+        controls = self._input(display_time)
+        input_ms = (time.perf_counter() - start) * 1e3
+        return Frame(display_time * 1e-9, bool(frame_state.should_render), eyes, controls, input_ms)
 
     def _input(self, display_time) -> InputState:
         if not self._focused:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import time
 
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
@@ -30,7 +31,7 @@ class RecordingLink:
         return []
 
     def send(self, **message):
-        self.sent.append(message)
+        self.sent.append({**message, "at_s": time.perf_counter()})
         return True
 
 

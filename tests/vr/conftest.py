@@ -1,4 +1,5 @@
-"""VR tests: two halves.
+"""VR tests: the viewer's parts that run anywhere (maths, actions, link, workbench, desktop
+preview under Xvfb), and two halves that need the OpenXR runtime.
 
 ``tests/vr/inside/`` runs inside tools/monado/run (a trixie root with Monado's
 simulated HMD, Xvfb and a cp313 venv); it imports ``xr`` and needs the runtime,
@@ -27,9 +28,12 @@ collect_ignore = ["test_harness.py"] if IN_MONADO else ["inside"]
 
 
 def pytest_collection_modifyitems(items):
-    here = Path(__file__).parent
+    # Only what needs the runtime is marked: the viewer's maths, actions, link and desktop
+    # preview run anywhere.
+    inside = Path(__file__).parent / "inside"
     for item in items:
-        if here in Path(item.fspath).parents:
+        path = Path(item.fspath)
+        if inside in path.parents or "monado_harness" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.openxr)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import queue
+import signal
 import subprocess
 import sys
 import threading
@@ -18,7 +19,13 @@ from PIL import Image
 
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
-from sand_editor.vr.link import EXIT_BAD_INPUT, EXIT_GRAPHICS, EXIT_NO_RUNTIME, encode
+from sand_editor.vr.link import (
+    EXIT_BAD_INPUT,
+    EXIT_GRAPHICS,
+    EXIT_INTERRUPTED,
+    EXIT_NO_RUNTIME,
+    encode,
+)
 
 REPO = Path(__file__).resolve().parents[2]
 OPENING = ["IDLE", "READY", "SYNCHRONIZED", "VISIBLE", "FOCUSED"]
@@ -243,6 +250,22 @@ def test_eof_on_stdin_ends_the_viewer_cleanly():
         assert viewer.finish() == 0
     finally:
         viewer.finish(timeout=5)
+
+
+@needs_display
+def test_sigterm_ends_the_session_cleanly_with_status_130(tmp_path):
+    report_path = tmp_path / "report.json"
+    viewer = _Viewer("--desktop", "--render-scale", "0.1", "--report", str(report_path))
+    try:
+        viewer.expect(lambda m: m["type"] == "ready")
+        viewer.proc.send_signal(signal.SIGTERM)
+        assert viewer.expect(lambda m: m["type"] == "bye")["status"] == EXIT_INTERRUPTED
+        assert viewer.finish() == EXIT_INTERRUPTED
+    finally:
+        viewer.finish(timeout=5)
+    report = json.loads(report_path.read_text())
+    assert report["states"][-len(CLOSING) :] == CLOSING
+    assert report["errors"] == ["interrupted"]
 
 
 @needs_display

@@ -101,6 +101,7 @@ def test_300_frames_with_controllers_and_an_edit_regenerating(monado_harness, re
     # The first frame may come with should_render false; every other one is drawn.
     assert report["frames_rendered"] >= FRAMES - 5
     assert report["swapchain_format"] == "GL_SRGB8_ALPHA8"
+    assert report["reference_space"] == "STAGE"
     for view in report["views"]:
         assert (view["width"], view["height"]) == (320, 240)
         assert set(view["fov"]) == {"angle_left", "angle_right", "angle_up", "angle_down"}
