@@ -8,6 +8,7 @@ chosen once per frame from the head, each eye through the one ``SandRenderer``, 
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -27,6 +28,7 @@ from sand_editor.vr.actions import (
     apply_command,
     commands_from_input,
 )
+from sand_editor.vr.errors import NoHeadsetError
 from sand_editor.vr.glwindow import finish_without_gil
 from sand_editor.vr.grains import GrainWorker
 from sand_editor.vr.link import LinkError, check_time_fields
@@ -38,6 +40,8 @@ FAR_M = 20000.0
 STANDING_EYE_HEIGHT_M = 1.6
 TIME_MESSAGE_INTERVAL_S = 0.2  # at most ~5 time messages a second while scrubbing
 MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
+SESSION_NOTICE_S = 10.0  # waiting this long for the session to run: tell the user
+SESSION_TIMEOUT_S = 60.0  # ... and give up with --frames (tests, support runs)
 WARM_UP_FRAMES = 50  # the report's resource counts are taken here and at the end
 
 
@@ -141,6 +145,8 @@ class FrameLoop:
         self.pending_applied: tuple[int | None, float] | None = None
         self.resources: dict[str, dict] = {}
         self._builds_before_loop = 0
+        self._waiting_since: float | None = None
+        self._waiting_noticed = False
         self.stop_requested = False  # set from a signal handler: end the session cleanly
 
     # ---- start and end -------------------------------------------------------------------
@@ -196,6 +202,7 @@ class FrameLoop:
             wait_start = time.perf_counter()
             frame = backend.wait_frame()
             if frame is None:
+                self._waiting_for_session()
                 time.sleep(0.005)
                 continue
             loop_start = time.perf_counter()
@@ -214,6 +221,29 @@ class FrameLoop:
                 stats.last_submit = time.perf_counter()
             if self.options.frames is not None and stats.frames_submitted >= self.options.frames:
                 backend.request_exit()
+
+    def _waiting_for_session(self) -> None:
+        """Before the runtime runs the session (a headset off or not worn keeps it IDLE): say
+        so after a while, and give up after longer when a number of frames was asked for."""
+        if self.stats.frames_submitted:
+            return
+        now = time.perf_counter()
+        if self._waiting_since is None:
+            self._waiting_since = now
+        waited = now - self._waiting_since
+        state = self.stats.states[-1] if self.stats.states else "none yet"
+        if waited > SESSION_NOTICE_S and not self._waiting_noticed:
+            self._waiting_noticed = True
+            print(
+                f"sand-editor vr: waiting for the OpenXR runtime to start the session "
+                f"(state {state}): is the headset on and worn?",
+                file=sys.stderr,
+            )
+        if self.options.frames is not None and waited > SESSION_TIMEOUT_S:
+            raise NoHeadsetError(
+                f"the OpenXR runtime did not start the session within {SESSION_TIMEOUT_S:.0f} s "
+                f"(state {state}): switch the headset on and put it on, or use --desktop"
+            )
 
     def _frame(self, frame: Frame) -> list[float] | None:
         dt = 0.0
