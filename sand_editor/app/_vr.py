@@ -52,7 +52,7 @@ LATENCIES_KEPT = 100
 EXIT_MEANINGS = {
     EXIT_BAD_INPUT: "the viewer refused its input (preset or arguments)",
     EXIT_NO_RUNTIME: "no OpenXR runtime is installed or active",
-    EXIT_NO_HEADSET: "the OpenXR runtime found no headset",
+    EXIT_NO_HEADSET: "the OpenXR runtime has no headset ready (none found, or it was lost)",
     EXIT_GRAPHICS: "the viewer could not set up graphics (no OpenGL context, or the runtime "
     "refused the session)",
     EXIT_INTERRUPTED: "the viewer was interrupted",
