@@ -48,6 +48,8 @@ TERMINATE_GRACE_MS = 2000  # after SIGTERM, before SIGKILL
 STDERR_LINES_KEPT = 40
 STDERR_LINES_SHOWN = 6
 LATENCIES_KEPT = 100
+# Between what happened and the viewer's last log lines, in the message of ``finished``.
+LOG_HEADING = "\n\nLast lines from the viewer:\n"
 
 EXIT_MEANINGS = {
     EXIT_BAD_INPUT: "the viewer refused its input (preset or arguments)",
@@ -349,7 +351,7 @@ class VrLink(QObject):
             message += " " + FIXES[status]
         tail = self.stderr_tail()
         if tail and (status != EXIT_OK or self.stop_reason is not None):
-            message += "\n\nLast lines from the viewer:\n" + tail
+            message += LOG_HEADING + tail
         return message
 
     def stderr_tail(self, lines: int = STDERR_LINES_SHOWN) -> str:

@@ -10,7 +10,7 @@ from PySide6.QtCore import QEvent, QObject, QTimer
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import QApplication, QLabel, QMainWindow, QMessageBox, QPushButton, QWidget
 
-from sand_editor.app._vr import VrLink
+from sand_editor.app._vr import LOG_HEADING, VrLink
 from sand_editor.preset import Preset
 from sand_editor.vr.link import (
     EXIT_INTERRUPTED,
@@ -185,7 +185,7 @@ class VrControls(QObject):
 
     def _show_message(self, status: int, message: str) -> None:
         self._close_message()
-        text, _, details = message.partition("\n\nLast lines from the viewer:\n")
+        text, _, details = message.partition(LOG_HEADING)
         box = QMessageBox(self.window)
         box.setObjectName("vr-message")
         box.setIcon(QMessageBox.Icon.Warning)
@@ -196,7 +196,7 @@ class VrControls(QObject):
         )
         box.setText(text)
         if details:
-            box.setInformativeText("Last lines from the viewer:\n" + details)
+            box.setInformativeText(LOG_HEADING.strip() + "\n" + details)
             box.setDetailedText("\n".join(self.link.stderr_lines))
         self.desktop_button = None
         if status in OFFER_DESKTOP:
