@@ -68,17 +68,33 @@ FIXES = {
 }
 
 
+_CRASH_SIGNALS = frozenset(
+    {signal.SIGSEGV, signal.SIGBUS, signal.SIGABRT, signal.SIGILL, signal.SIGFPE}
+)
+
+
 def exit_meaning(status: int) -> str:
     """What an exit status of ``sand-editor vr`` means, in words; negative: killed by a signal."""
     if status < 0:
-        try:
-            name = signal.Signals(-status).name
-        except ValueError:
-            name = f"signal {-status}"
-        return f"the viewer was killed by {name}"
+        name = _signal_name(-status)
+        if -status == signal.SIGKILL:
+            return (
+                f"the viewer was killed ({name}: by another program, or by the system when "
+                "memory ran out)"
+            )
+        if -status in _CRASH_SIGNALS:
+            return f"the viewer crashed ({name})"
+        return f"the viewer was ended by {name}"
     if status == EXIT_OK:
         return "the viewer closed"
     return EXIT_MEANINGS.get(status, f"the viewer stopped with exit status {status}")
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
 
 
 def viewer_command(
@@ -343,7 +359,8 @@ class VrLink(QObject):
     def _describe_exit(self, status: int) -> str:
         sentence = exit_meaning(status)
         if self.stop_reason is not None:
-            sentence = f"the viewer was stopped because {self.stop_reason} ({sentence})"
+            ending = _signal_name(-status) if status < 0 else f"exit status {status}"
+            sentence = f"the viewer was stopped because {self.stop_reason} (it ended with {ending})"
         elif status == EXIT_OK and not self.is_ready:
             sentence = "the viewer closed before it showed anything"
         message = sentence[0].upper() + sentence[1:] + "."

@@ -194,6 +194,8 @@ class VrControls(QObject):
                 status, "VR viewer stopped"
             )
         )
+        if status not in OFFER_DESKTOP:  # those say what to do instead
+            text += f"\n\nYour work in the editor is as it was; {START_TEXT} starts a new viewer."
         box.setText(text)
         if details:
             box.setInformativeText(LOG_HEADING.strip() + "\n" + details)

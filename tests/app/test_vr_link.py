@@ -125,7 +125,9 @@ def test_the_command_line_takes_the_wrapper_and_python_from_the_environment(monk
 def test_exit_statuses_are_said_in_words():
     assert "no OpenXR runtime" in exit_meaning(EXIT_NO_RUNTIME)
     assert "no headset" in exit_meaning(EXIT_NO_HEADSET)
-    assert "SIGKILL" in exit_meaning(-signal.SIGKILL)
+    assert "killed (SIGKILL" in exit_meaning(-signal.SIGKILL)
+    assert exit_meaning(-signal.SIGSEGV) == "the viewer crashed (SIGSEGV)"
+    assert exit_meaning(-signal.SIGTERM) == "the viewer was ended by SIGTERM"
     assert "exit status 77" in exit_meaning(77)
     assert exit_meaning(EXIT_OK) == "the viewer closed"
 
@@ -166,7 +168,7 @@ def test_a_viewer_that_never_shows_anything_is_stopped_with_a_message(vr, qtbot,
         assert vr.state_label.text().startswith("Starting")
     status, message = finished.args
     assert status == -signal.SIGTERM
-    assert "showed nothing within 1 s" in message
+    assert "showed nothing within 1 s (it ended with SIGTERM)" in message
     assert "stuck loading" in message  # the viewer's last words
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
@@ -341,7 +343,7 @@ def test_a_viewer_that_hangs_is_reported_and_ended_by_stop(vr, window, qtbot):
             pass
     status, message = finished.args
     assert status == -signal.SIGKILL  # SIGTERM waits on a stopped process; SIGKILL does not
-    assert "did not quit when asked" in message
+    assert "did not quit when asked (it ended with SIGKILL)" in message
     qtbot.waitUntil(lambda: vr.message_box is not None and vr.message_box.isVisible())
     assert vr.action.text() == START_TEXT
 
