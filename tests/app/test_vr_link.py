@@ -287,6 +287,17 @@ def test_no_runtime_offers_the_desktop_preview_which_follows_the_editor_both_way
             keyboard.press(viewer_window, "l", hold_s=KEY_HOLD_S)
         assert toggled.args[0] == "lambert"
         assert panel.mode_combo.currentData() == "lambert"
+
+        # Playing the day in VR runs the editor's clock at the viewer's speed; nothing of the
+        # above went back to the viewer.
+        with qtbot.waitSignal(
+            vr.link.time, timeout=ANSWER_TIMEOUT_MS, check_params_cb=lambda f: f.get("playing")
+        ) as played:
+            keyboard.press(viewer_window, "space", hold_s=KEY_HOLD_S)
+        speed = played.args[0]["day_speed"]
+        assert speed > 0
+        assert panel.day_speed.value() == round(speed * 3600)
+        assert panel.day_timer.isActive()
         qtbot.wait(2 * SEND_INTERVAL_MS)
         assert (vr.link.sent["time"], vr.link.sent["mode"]) == (sent_times, sent_modes)
     finally:
