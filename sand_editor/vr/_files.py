@@ -1,4 +1,4 @@
-"""Atomic PNG writing for the viewer's screenshots."""
+"""The viewer's screenshots: eye images read back and written atomically as one PNG."""
 
 from __future__ import annotations
 
@@ -24,3 +24,23 @@ def write_png(pixels: np.ndarray, path: Path) -> None:
     except BaseException:
         Path(handle.name).unlink(missing_ok=True)
         raise
+
+
+def read_pixels(target, viewport) -> np.ndarray:
+    """(height, width, 3) uint8 of a framebuffer's viewport, rows top-down."""
+    x, y, width, height = viewport
+    data = target.read(viewport=(x, y, width, height), components=3, alignment=1)
+    return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1]
+
+
+def save_side_by_side(images: list[np.ndarray], path: Path) -> None:
+    """The eyes' images next to each other, a black line between, as one PNG."""
+    height = max(image.shape[0] for image in images)
+    gap = np.zeros((height, 4, 3), np.uint8)
+    parts = []
+    for image in images:
+        if image.shape[0] < height:
+            pad = np.zeros((height - image.shape[0], *image.shape[1:]), np.uint8)
+            image = np.vstack([image, pad])
+        parts.extend([image, gap])
+    write_png(np.hstack(parts[:-1]), path)

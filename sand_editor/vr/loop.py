@@ -21,6 +21,8 @@ from sand_editor.render.modes import MODES
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import presets_dir
+from sand_editor.vr._files import read_pixels, save_side_by_side
+from sand_editor.vr._report import FrameStats, summary
 from sand_editor.vr._resources import gl_object_counts, resident_mb
 from sand_editor.vr.actions import (
     InputState,
@@ -92,33 +94,13 @@ class ViewerOptions:
     screenshot: Path | None = None
 
 
-class _Stats:
-    def __init__(self) -> None:
-        self.eye_ms: list[float] = []
-        self.overhead_ms: list[float] = []
-        self.submit_ms: list[float] = []
-        self.wait_ms: list[float] = []
-        self.gaps_ms: list[float] = []
-        self.regenerating_gaps_ms: list[float] = []
-        self.last_submit: float | None = None
-        self.frames_submitted = 0
-        self.frames_rendered = 0
-        self.views_differ = True
-        self.states: list[str] = []
-        self.errors: list[str] = []
-        self.max_gap_frame = 0
-        self.head_lod = None
-        self.head_lod_changes = 0
-        self.eye_lod_disagreements = 0
-
-
 class FrameLoop:
     def __init__(self, backend, windows, link, options: ViewerOptions) -> None:
         self.backend = backend
         self.link = link
         self.options = options
         self.ctx = windows.ctx
-        self.stats = _Stats()
+        self.stats = FrameStats()
         self.presets = _preset_list(options.preset, options.preset_label)
         self.controls = ViewerControls(
             hours=options.hours % 24.0,
@@ -279,14 +261,14 @@ class FrameLoop:
                 )
                 finish_without_gil()
                 if screenshot:
-                    images.append(_read(target, viewport))
+                    images.append(read_pixels(target, viewport))
             eye_ms.append((time.perf_counter() - start) * 1e3)
         if len(cameras) == 2 and np.allclose(cameras[0].view, cameras[1].view):
             self.stats.views_differ = False
         self.stats.eye_ms.extend(eye_ms)
         self.stats.frames_rendered += 1
         if screenshot:
-            _save_side_by_side(images, self.options.screenshot)
+            save_side_by_side(images, self.options.screenshot)
         return eye_ms
 
     def _count_levels_of_detail(self, head, cameras) -> None:
@@ -487,11 +469,11 @@ class FrameLoop:
             "suggested_bindings": suggested,
             "frames_submitted": stats.frames_submitted,
             "frames_rendered": stats.frames_rendered,
-            "eye_ms": _summary(stats.eye_ms),
-            "frame_overhead_ms": _summary(stats.overhead_ms),
-            "wait_ms": _summary(stats.wait_ms),
-            "submit_ms": _summary(stats.submit_ms),
-            "frame_gap_ms": _summary(stats.gaps_ms),
+            "eye_ms": summary(stats.eye_ms),
+            "frame_overhead_ms": summary(stats.overhead_ms),
+            "wait_ms": summary(stats.wait_ms),
+            "submit_ms": summary(stats.submit_ms),
+            "frame_gap_ms": summary(stats.gaps_ms),
             "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
             "max_frame_gap_at_frame": stats.max_gap_frame,
             "max_frame_gap_while_regenerating_ms": round(
@@ -514,17 +496,6 @@ class FrameLoop:
         }
 
 
-def _summary(values: list[float]) -> dict:
-    if not values:
-        return {"median": None, "p99": None, "count": 0}
-    array = np.asarray(values)
-    return {
-        "median": round(float(np.median(array)), 3),
-        "p99": round(float(np.percentile(array, 99)), 3),
-        "count": len(values),
-    }
-
-
 def _between(eyes: list[EyeView]) -> Pose:
     """The head: midway between the eyes, facing as the first eye does."""
     position = np.mean([e.pose.position for e in eyes], axis=0)
@@ -542,23 +513,3 @@ def _preset_list(preset: Preset, label: str) -> list[tuple[str, Preset]]:
         except PresetError:
             continue
     return entries
-
-
-def _read(target, viewport) -> np.ndarray:
-    x, y, width, height = viewport
-    data = target.read(viewport=(x, y, width, height), components=3, alignment=1)
-    return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1]
-
-
-def _save_side_by_side(images: list[np.ndarray], path: Path) -> None:
-    from sand_editor.vr._files import write_png
-
-    height = max(image.shape[0] for image in images)
-    gap = np.zeros((height, 4, 3), np.uint8)
-    parts = []
-    for image in images:
-        if image.shape[0] < height:
-            pad = np.zeros((height - image.shape[0], *image.shape[1:]), np.uint8)
-            image = np.vstack([image, pad])
-        parts.extend([image, gap])
-    write_png(np.hstack(parts[:-1]), path)

@@ -64,6 +64,44 @@ def create_instance() -> xr.Instance:
         raise NoRuntimeError(f"{reason}. {RUNTIME_HELP}") from None
 
 
+def create_actions(instance, hand_paths) -> tuple:
+    """The viewer's action set and its actions (``ACTIONS``), each per hand."""
+    action_set = xr.create_action_set(
+        instance,
+        xr.ActionSetCreateInfo(
+            action_set_name="sand_viewer", localized_action_set_name="Sand viewer", priority=0
+        ),
+    )
+    actions = {
+        name: xr.create_action(
+            action_set,
+            xr.ActionCreateInfo(
+                action_name=name,
+                action_type=_ACTION_TYPES[kind],
+                subaction_paths=hand_paths,
+                localized_action_name=label,
+            ),
+        )
+        for name, (kind, label) in ACTIONS.items()
+    }
+    return action_set, actions
+
+
+def suggest_bindings(instance, actions: dict, profile: str, pairs) -> None:
+    """Suggest (action, input path) pairs for an interaction profile; the runtime raises if
+    it rejects any of them (and then the whole profile)."""
+    xr.suggest_interaction_profile_bindings(
+        instance,
+        xr.InteractionProfileSuggestedBinding(
+            interaction_profile=xr.string_to_path(instance, profile),
+            suggested_bindings=[
+                xr.ActionSuggestedBinding(actions[action], xr.string_to_path(instance, path))
+                for action, path in pairs
+            ],
+        ),
+    )
+
+
 class XrBackend:
     name = "xr"
 
@@ -181,40 +219,12 @@ class XrBackend:
         self._hand_paths = {
             hand: xr.string_to_path(instance, f"/user/hand/{hand}") for hand in HANDS
         }
-        self.action_set = xr.create_action_set(
-            instance,
-            xr.ActionSetCreateInfo(
-                action_set_name="sand_viewer", localized_action_set_name="Sand viewer", priority=0
-            ),
-        )
+        self.action_set, self.actions = create_actions(instance, list(self._hand_paths.values()))
         self._cleanup.append(lambda: xr.destroy_action_set(self.action_set))
-        subactions = list(self._hand_paths.values())
-        self.actions = {
-            name: xr.create_action(
-                self.action_set,
-                xr.ActionCreateInfo(
-                    action_name=name,
-                    action_type=_ACTION_TYPES[kind],
-                    subaction_paths=subactions,
-                    localized_action_name=label,
-                ),
-            )
-            for name, (kind, label) in ACTIONS.items()
-        }
         self.suggested_profiles = {}
         for profile in BINDINGS:
-            bindings = [
-                xr.ActionSuggestedBinding(self.actions[action], xr.string_to_path(instance, path))
-                for action, path in binding_paths(profile)
-            ]
             try:
-                xr.suggest_interaction_profile_bindings(
-                    instance,
-                    xr.InteractionProfileSuggestedBinding(
-                        interaction_profile=xr.string_to_path(instance, profile),
-                        suggested_bindings=bindings,
-                    ),
-                )
+                suggest_bindings(instance, self.actions, profile, binding_paths(profile))
                 self.suggested_profiles[profile] = "accepted"
             except xr.XrException as exc:
                 # One unknown path rejects the whole profile; the others still work.
