@@ -68,8 +68,12 @@ FIXES = {
 }
 
 
+# Signal numbers by name, where the platform has them (Windows has no SIGKILL or SIGBUS).
+_SIGKILL = int(getattr(signal, "SIGKILL", 9))
 _CRASH_SIGNALS = frozenset(
-    {signal.SIGSEGV, signal.SIGBUS, signal.SIGABRT, signal.SIGILL, signal.SIGFPE}
+    int(getattr(signal, name))
+    for name in ("SIGSEGV", "SIGBUS", "SIGABRT", "SIGILL", "SIGFPE")
+    if hasattr(signal, name)
 )
 
 
@@ -77,7 +81,7 @@ def exit_meaning(status: int) -> str:
     """What an exit status of ``sand-editor vr`` means, in words; negative: killed by a signal."""
     if status < 0:
         name = _signal_name(-status)
-        if -status == signal.SIGKILL:
+        if -status == _SIGKILL:
             return (
                 f"the viewer was killed ({name}: by another program, or by the system when "
                 "memory ran out)"
@@ -350,10 +354,10 @@ class VrLink(QObject):
     def _exit_status(self) -> int:
         process = self.process
         if process is None or process.state() != QProcess.ProcessState.NotRunning:
-            return -int(signal.SIGKILL)
+            return -_SIGKILL
         if process.exitStatus() == QProcess.ExitStatus.CrashExit:
             # Qt reports the terminating signal as the exit code of a crashed process.
-            return -process.exitCode() if process.exitCode() > 0 else -int(signal.SIGKILL)
+            return -process.exitCode() if process.exitCode() > 0 else -_SIGKILL
         return process.exitCode()
 
     def _describe_exit(self, status: int) -> str:
