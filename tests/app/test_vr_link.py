@@ -410,6 +410,19 @@ def test_time_set_in_vr_before_the_3d_tab_exists_shows_when_it_opens(vr, window,
 
 
 @pytest.mark.slow
+def test_stop_while_the_viewer_is_starting_ends_it_quietly(vr, qtbot):
+    with finished_signal(vr, qtbot) as finished:
+        vr.desktop_action.trigger()
+        assert vr.state_label.text() == "Starting desktop preview…"
+        qtbot.mouseClick(vr.button, Qt.MouseButton.LeftButton)  # Stop VR, at once
+        assert vr.state_label.text() == "Closing…"
+    status, message = finished.args
+    assert status == EXIT_OK, message
+    assert vr.message_box is None  # asked for: nothing to warn about
+    assert vr.action.text() == START_TEXT and vr.desktop_action.isEnabled()
+
+
+@pytest.mark.slow
 def test_closing_the_editor_asks_the_viewer_to_quit_first(vr, window, qtbot):
     start_desktop(vr, qtbot)
     with finished_signal(vr, qtbot) as finished:
