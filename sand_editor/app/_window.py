@@ -23,6 +23,7 @@ from sand_editor.app._model import PresetModel
 from sand_editor.app._preview import CHANNELS, TAB_3D, PreviewPanel
 from sand_editor.app._regenerator import Regenerator
 from sand_editor.app._settings import EditorSettings
+from sand_editor.app._vr_controls import VrControls
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir
@@ -93,6 +94,7 @@ class EditorWindow(QMainWindow):
         self.model.refused.connect(lambda text: self.statusBar().showMessage(text, 10_000))
         self.model.undo_stack.cleanChanged.connect(self._update_title)
         self._build_actions()
+        self.vr = VrControls(self)  # the "View in VR" button, menu and link to the viewer
         self._update_title()
         self._restore_settings()
         self.regenerator.request(self.model.preset)

@@ -1,0 +1,213 @@
+"""How long an edit in the editor takes to be on screen in the VR viewer.
+
+Opens the editor window, starts the desktop stereo preview from it (the same process, link and
+frame loop as a headset), makes edits through the preset model as a control would, and times
+each from the edit to the viewer's "applied" answer. Generation edits make new grains in the
+viewer; their generation time, measured apart on a headless context at the viewer's texture
+size, is subtracted to give the link's own share. Needs a display (run it under xvfb-run).
+
+    xvfb-run -a .venv/bin/python tools/bench-vr-link.py [--edits N] [--render-scale S ...]
+        [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+READY_TIMEOUT_S = 180.0
+APPLIED_TIMEOUT_S = 60.0
+SETTLE_S = 0.3  # between edits, so each is timed alone
+VIEWER_TEXTURE_SIZE = 1024  # the viewer's grain textures (sand_editor.vr.loop.ViewerOptions)
+
+
+def _wait(app, condition, timeout_s: float, what: str) -> None:
+    deadline = time.perf_counter() + timeout_s
+    while not condition():
+        if time.perf_counter() > deadline:
+            raise SystemExit(f"bench-vr-link: timed out waiting for {what}")
+        app.processEvents()
+        time.sleep(0.002)
+
+
+def _edits(window, kind: str, count: int):
+    """``count`` edits of one kind: values that alternate, so each one changes the preset."""
+    preset = window.model.preset
+    for i in range(count):
+        if kind == "shading":
+            # A uniform of the material: no new grains, no texture rebuild.
+            base = preset.shading.glint_shininess
+            yield "shading.glint_shininess", base + (1.0 if i % 2 == 0 else 0.0)
+        else:
+            yield "generation.seed", preset.generation.seed + i + 1
+
+
+def _measure_link(app, window, kinds, count: int) -> dict:
+    link = window.vr.link
+    viewer_ms: dict[int, float] = {}
+    link.applied.connect(lambda seq, ms: viewer_ms.__setitem__(seq, ms))
+    results = {}
+    for kind in kinds:
+        rows = []
+        for path, value in _edits(window, kind, count):
+            seq_before = link.seq
+            window.model.edit(path, value)
+            _wait(app, lambda s=seq_before: link.seq > s, 5.0, "the edit to be sent")
+            seq = link.seq
+            _wait(app, lambda s=seq: s in viewer_ms, APPLIED_TIMEOUT_S, f"applied {seq}")
+            rows.append(
+                {"seq": seq, "edit_to_screen_ms": link.latency_ms[seq], "viewer_ms": viewer_ms[seq]}
+            )
+            settle = time.perf_counter() + SETTLE_S
+            _wait(app, lambda t=settle: time.perf_counter() > t, SETTLE_S + 1, "settling")
+        results[kind] = rows
+    return results
+
+
+def _generation_ms(preset, count: int) -> list[float]:
+    """Grains plus material textures for new seeds, as the viewer's worker makes them."""
+    from sand_editor.gl import standalone_context
+    from sand_editor.render.material import SandMaterial
+
+    ctx = standalone_context()
+    material = SandMaterial(ctx, VIEWER_TEXTURE_SIZE)
+    material.update(preset)
+    ctx.finish()
+    times = []
+    for i in range(count):
+        changed = preset.replace(**{"generation.seed": preset.generation.seed + 1000 + i})
+        start = time.perf_counter()
+        material.update(changed)
+        ctx.finish()
+        times.append((time.perf_counter() - start) * 1e3)
+    material.release()
+    return times
+
+
+def _summary(values: list[float]) -> dict:
+    ordered = sorted(values)
+    return {
+        "median": statistics.median(ordered),
+        "p90": ordered[min(len(ordered) - 1, round(0.9 * (len(ordered) - 1)))],
+        "max": ordered[-1],
+    }
+
+
+def _run_viewer(app, window, render_scale: float, edits: int) -> tuple[dict, dict]:
+    """Start the desktop preview from the window, time the edits, close it."""
+    link = window.vr.link
+    link.extra_args = ("--render-scale", f"{render_scale:g}")
+    window.vr.start(desktop=True)
+    _wait(app, lambda: link.is_ready or not link.running, READY_TIMEOUT_S, "the first frame")
+    if not link.is_ready:
+        raise SystemExit("bench-vr-link: the viewer did not start:\n" + link.stderr_tail())
+    info = link.ready_info
+    try:
+        return info, _measure_link(app, window, ("shading", "generation"), edits)
+    finally:
+        link.stop()
+        _wait(app, lambda: not link.running, 10.0, "the viewer to close")
+
+
+def _table_rows(info: dict, scale: float, link_rows: dict, generation_ms: float) -> list[dict]:
+    eye = info["views"][0]
+    table = []
+    for kind, rows in link_rows.items():
+        total = [row["edit_to_screen_ms"] for row in rows]
+        viewer = [row["viewer_ms"] for row in rows]
+        subtract = generation_ms if kind == "generation" else 0.0
+        table.append(
+            {
+                "render_scale": scale,
+                "eye": f"{eye['width']}×{eye['height']}",
+                "edit": kind,
+                "edits": len(rows),
+                "edit_to_screen_ms": _summary(total),
+                "edit_to_viewer_ms": _summary([t - v for t, v in zip(total, viewer, strict=True)]),
+                "in_viewer_ms": _summary(viewer),
+                "generation_ms": subtract,
+                "minus_generation_ms": _summary([t - subtract for t in total]),
+            }
+        )
+    return table
+
+
+def _print_table(system: str, table: list[dict]) -> None:
+    print(f"viewer: {system}, grains {VIEWER_TEXTURE_SIZE}²; median / p90 ms")
+    print(
+        "| eye | edit | edits | edit → on screen | editor → viewer | in the viewer | "
+        "generation (apart) | on screen minus generation |"
+    )
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for row in table:
+        cells = [
+            f"{row[key]['median']:.0f} / {row[key]['p90']:.0f}"
+            for key in ("edit_to_screen_ms", "edit_to_viewer_ms", "in_viewer_ms")
+        ]
+        net = row["minus_generation_ms"]
+        print(
+            f"| {row['eye']} | {row['edit']} | {row['edits']} | {' | '.join(cells)} | "
+            f"{row['generation_ms']:.0f} | **{net['median']:.0f}** / {net['p90']:.0f} |"
+        )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--edits", type=int, default=10, help="edits of each kind")
+    parser.add_argument(
+        "--render-scale",
+        type=float,
+        nargs="+",
+        default=[0.1, 0.5],
+        help="the viewer's eye size factors to run (1 = 480×360 per eye)",
+    )
+    parser.add_argument("--json", help="write the results to this file")
+    args = parser.parse_args(argv)
+
+    sys.path.insert(0, str(REPO))
+    os.environ["PYTHONPATH"] = os.pathsep.join(
+        filter(None, [str(REPO), os.environ.get("PYTHONPATH")])
+    )
+    from PySide6.QtWidgets import QApplication
+
+    from sand_editor.app import EditorWindow
+    from sand_editor.preset import Preset
+    from sand_editor.resources import bundled_preset
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    window = EditorWindow(Preset.load(bundled_preset("paper-default")))
+    window.show()
+    _wait(app, lambda: window.preview.textures is not None, READY_TIMEOUT_S, "the editor")
+    runs = [(scale, *_run_viewer(app, window, scale, args.edits)) for scale in args.render_scale]
+    generation = _generation_ms(window.model.preset, args.edits)
+    table = [
+        row
+        for scale, info, link_rows in runs
+        for row in _table_rows(info, scale, link_rows, statistics.median(generation))
+    ]
+    _print_table(runs[0][1]["system"], table)
+    if args.json:
+        document = {
+            "viewer": runs[0][1]["system"],
+            "texture_size": VIEWER_TEXTURE_SIZE,
+            "generation_ms": generation,
+            "runs": [
+                {"render_scale": scale, "ready": info, "edits": link_rows}
+                for scale, info, link_rows in runs
+            ],
+            "summary": table,
+        }
+        Path(args.json).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    window.model.undo_stack.setClean()
+    window.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
