@@ -10,6 +10,9 @@
 // light instead of many taps. The footprint is the one the reference's N×N multisampling covers
 // (sample_count × sample_spread pixels), fetched once with anisotropic trilinear filtering.
 
+#include "common.glsl"
+#include "glint_facets.glsl"
+
 struct SurfacePoint {
     vec3 position;   // world (metres)
     vec3 normal;     // macro normal, unit, world
@@ -44,10 +47,17 @@ uniform float u_ripple_strength;
 uniform float u_detail_strength;
 uniform float u_sigmoid_a;
 uniform float u_sigmoid_b;
-// 0: ours (footprint moments); 1: the reference's N×N multisampling of mipmapped normals;
-// 2: none (one tap of the finest level); 3: ground truth (K×K taps of the finest level).
+// The glint model: the physical one by default (sparkles of the sun's real radiance in grain
+// facets), or the reference's look (its gain and distance boost) in MODE_REFERENCE_LOOK.
+uniform float u_facet_share_scale;   // 1 / selection weight of the clearest grain (material.py)
+#if defined SAND_PROBE
+// Benchmark-only filters (sand_editor/render/probe.py compiles this variant): 0 ours (sparkles
+// drawn from the footprint's moments); 1 the expected value of those moments alone; 2 the
+// reference's N×N multisampling of mipmapped normals; 3 none (one tap of the finest level);
+// 4 ground truth (every facet in the pixel, explicitly).
 uniform int u_glint_filter;
-uniform int u_ground_truth_samples;
+uniform int u_ground_truth_samples;  // K: K×K jittered samples of albedo and slope
+#endif
 // Close-range work is skipped where the blend weight exceeds this (its share is below 1 − it),
 // which happens beyond u_close_limit metres. Surfaces are drawn twice in full mode: once with
 // this file as is, discarding beyond the limit, and once compiled with SAND_FAR_ONLY, discarding
@@ -56,17 +66,18 @@ uniform int u_ground_truth_samples;
 uniform float u_close_cutoff;
 uniform float u_close_limit;
 
-const float PI = 3.14159265358979;
-const float GLINT_GAIN = 5000.0;     // the reference's glint radiance scale
+const float REFERENCE_GLINT_GAIN = 5000.0;  // the reference's glint radiance scale
+const float REFERENCE_BOOST = 5.0;   // and its distance boost e^(5m), m the mip level / the top
 const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
 const float MIN_FACING = 0.05;       // least n·v of a shading normal
 const float HOLE_SCALE2 = 0.25;      // s₀², width² of the slope hole probe (material_build.frag)
 
 #define FILTER_OURS 0
-#define FILTER_REFERENCE 1
-#define FILTER_NONE 2
-#define FILTER_GROUND_TRUTH 3
+#define FILTER_EXPECTED 1
+#define FILTER_REFERENCE 2
+#define FILTER_NONE 3
+#define FILTER_GROUND_TRUTH 4
 
 float blend_weight(float distance_m) {
     // Clamped so exp() never overflows at 1 km with a steep sigmoid.
@@ -170,16 +181,6 @@ float glint_fresnel(float v_dot_h) {
     return mix(schlick / SILICA_F0, 1.0, u_fresnel_roughness);
 }
 
-// A random point in stratum (i, j) of a k×k grid over the pixel, centred on it. Regular taps
-// would alias against the texture's tiling far away; jittered ones keep the estimate unbiased.
-vec2 stratum_offset(int i, int j, int k) {
-    uvec2 p = uvec2(gl_FragCoord.xy);
-    uint h = (p.x * 1973u + p.y * 9277u + uint(i) * 26699u + uint(j) * 7919u) | 1u;
-    h ^= h >> 16u; h *= 0x7feb352du; h ^= h >> 15u; h *= 0x846ca68bu; h ^= h >> 16u;
-    vec2 r = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
-    return (vec2(float(i), float(j)) + r) / float(k) - 0.5;
-}
-
 struct Footprint {
     vec2 tc;     // texture coordinates (tiles)
     vec2 dx;     // screen derivatives of tc
@@ -191,7 +192,7 @@ struct HalfVector {
     bool valid;      // the light and the eye are above the surface and some grain can mirror
     vec2 slope;      // of the half vector, in tangent space
     float variance;  // of the lobe about it, in slope space
-    float fresnel;
+    float fresnel;   // normalised to 1 at normal incidence
 };
 
 HalfVector half_vector(vec3 l_t, vec3 v_t) {
@@ -208,20 +209,121 @@ vec2 lobes(HalfVector h0, HalfVector h1, vec2 b) {
                 h1.valid ? glint_lobe(b, h1.slope, h1.variance) : 0.0);
 }
 
-// The expected glint factors (before light, gain and cosine) of two lights over the footprint.
-// Every filter fetches its taps once for both lights: they do not depend on the light.
-vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1) {
+// The expected glint E[w·lobe] of two lights over the footprint of the reference's N×N kernel
+// (the preset's sample count × spread pixels), from one trilinear fetch per moment texture.
+vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1) {
+    float widen = max(1.0, float(u_sample_count) * u_sample_spread);
+    vec2 gx = f.dx * widen, gy = f.dy * widen;
+    SlopeMoments m = slope_moments(textureGrad(u_glint_moments, f.tc, gx, gy),
+                                   textureGrad(u_spread_moments, f.tc, gx, gy),
+                                   textureGrad(u_hole_moments, f.tc, gx, gy).x);
+    return vec2(h0.valid ? expected_glint(m, h0.slope, h0.variance) : 0.0,
+                h1.valid ? expected_glint(m, h1.slope, h1.variance) : 0.0);
+}
+
+// Facet slope density at the half vector of an expected glint E[w·lobe]: the lobe, peak 1, is
+// a Gaussian of integral 2π·variance, and w / (the clearest grain's w) is a grain's share of
+// mirror-like facets.
+float facet_density(float expected, HalfVector h) {
+    return expected * u_facet_share_scale / (2.0 * PI * h.variance);
+}
+
+// Finest-level texels across the pixel's footprint (the side of a square of its area).
+float footprint_texels(Footprint f) {
+    return sqrt(abs(f.dx.x * f.dy.y - f.dx.y * f.dy.x)) * u_texture_size;
+}
+
+// The expected glints with each light's sparkle drawn: the count of mirroring facets in the
+// footprint, over its expectation (glint_facets.glsl).
+vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1) {
+    vec2 expected = expected_factors(f, h0, h1);
+    float texels = footprint_texels(f);
+    float facet_texels = FACET_SIZE_M * u_uv_scale * u_texture_size;
+    vec2 ratio = vec2(0.0);
+    if (expected.x > 0.0)
+        ratio.x = sparkle_ratio(f.tc, texels, u_texture_size, facet_texels, h0.slope,
+                                facet_density(expected.x, h0), 0u);
+    if (expected.y > 0.0)
+        ratio.y = sparkle_ratio(f.tc, texels, u_texture_size, facet_texels, h1.slope,
+                                facet_density(expected.y, h1), 1u);
+    return expected * ratio;
+}
+
+#if defined SAND_PROBE
+// A random point in stratum (i, j) of a k×k grid over the pixel, centred on it. Regular taps
+// would alias against the texture's tiling far away; jittered ones keep the estimate unbiased.
+vec2 stratum_offset(int i, int j, int k) {
+    uint h = lowbias32(uint(gl_FragCoord.x) * 1973u + uint(gl_FragCoord.y) * 9277u
+                       + uint(i) * 26699u + uint(j) * 7919u);
+    vec2 r = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
+    return (vec2(float(i), float(j)) + r) / float(k) - 0.5;
+}
+
+// Facets per axis the ground truth visits at most in one pixel; past that it visits every
+// n-th row and column (only far views, where a pixel holds tens of thousands of facets).
+const int GROUND_TRUTH_FACETS = 192;
+
+// Selection weight w of a facet where it mirrors each light (0 where not). The facet is tilted
+// from its grain's slope by its own Gaussian draw of the lobe's angular width.
+vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1, float r0, float r1) {
+    vec2 tc = (vec2(facet) + 0.5) / per_tile;
+    float w = textureLod(u_glint_moments, tc, 0.0).x;
+    if (w < 1e-6) return vec2(0.0);
+    vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
+    uint h = hash_cell(ivec2(mod(vec2(facet), per_tile)), 0x5eedu);
+    float u1 = (float(h >> 16u) + 0.5) / 65536.0, u2 = float(h & 0xffffu) / 65536.0;
+    vec2 z = sqrt(-2.0 * log(u1)) * vec2(cos(2.0 * PI * u2), sin(2.0 * PI * u2));
+    float sigma = 0.5 / sqrt(max(u_glint_shininess, 0.1));  // the lobe's angular width
+    vec2 slope = b + z * sigma * (1.0 + dot(b, b));
+    return vec2(h0.valid && distance(slope, h0.slope) < r0 ? w : 0.0,
+                h1.valid && distance(slope, h1.slope) < r1 ? w : 0.0);
+}
+
+// Ground truth: every facet whose centre lies in the pixel's footprint (a parallelogram in
+// texture space); a facet mirrors a light when its slope lies in that light's cone of half
+// vectors.
+// Returned in the units of E[w·lobe], so that it compares with the other filters one to one.
+vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1) {
+    float per_tile = max(floor(1.0 / (FACET_SIZE_M * u_uv_scale) + 0.5), 1.0);
+    vec2 centre = f.tc * per_tile;
+    vec2 dx = f.dx * per_tile, dy = f.dy * per_tile;
+    vec2 extent = 0.5 * (abs(dx) + abs(dy));
+    ivec2 lo = ivec2(floor(centre - extent)), hi = ivec2(floor(centre + extent));
+    int span = max(hi.x - lo.x, hi.y - lo.y) + 1;
+    int stride = max(1, (span + GROUND_TRUTH_FACETS - 1) / GROUND_TRUTH_FACETS);
+    float det = dx.x * dy.y - dx.y * dy.x;
+    if (abs(det) < 1e-12) return vec2(0.0);
+    mat2 to_pixel = inverse(mat2(dx, dy));
+    float r0 = cone_radius_slope(h0.slope), r1 = cone_radius_slope(h1.slope);
+    vec2 mirrored = vec2(0.0);
+    float inside = 0.0;
+    for (int y = lo.y; y <= hi.y; y += stride) {
+        for (int x = lo.x; x <= hi.x; x += stride) {
+            ivec2 facet = ivec2(x, y);
+            vec2 ab = to_pixel * (vec2(facet) + 0.5 - centre);
+            if (abs(ab.x) > 0.5 || abs(ab.y) > 0.5) continue;
+            inside += 1.0;
+            mirrored += facet_mirrors(facet, per_tile, h0, h1, r0, r1);
+        }
+    }
+    if (inside < 1.0) {
+        // A footprint smaller than a facet: the facet under the pixel's centre.
+        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, h0, h1, r0, r1);
+        inside = 1.0;
+    }
+    return mirrored / inside * vec2(2.0 * h0.variance / (r0 * r0), 2.0 * h1.variance / (r1 * r1));
+}
+#endif
+
+// The glint E[w·lobe] of two lights over the pixel, by the filter in use (production: ours).
+vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
     if (!h0.valid && !h1.valid) return vec2(0.0);
+#if defined SAND_PROBE
     vec2 glint = vec2(0.0);
     if (u_glint_filter == FILTER_OURS) {
-        // The footprint of the reference's N×N kernel, in one trilinear fetch.
-        float widen = max(1.0, float(u_sample_count) * u_sample_spread);
-        vec2 gx = f.dx * widen, gy = f.dy * widen;
-        SlopeMoments m = slope_moments(textureGrad(u_glint_moments, f.tc, gx, gy),
-                                       textureGrad(u_spread_moments, f.tc, gx, gy),
-                                       textureGrad(u_hole_moments, f.tc, gx, gy).x);
-        glint = vec2(h0.valid ? expected_glint(m, h0.slope, h0.variance) : 0.0,
-                     h1.valid ? expected_glint(m, h1.slope, h1.variance) : 0.0);
+        glint = sparkle ? sparkling_factors(f, h0, h1) : expected_factors(f, h0, h1);
+    } else if (u_glint_filter == FILTER_EXPECTED) {
+        glint = expected_factors(f, h0, h1);
     } else if (u_glint_filter == FILTER_REFERENCE) {
         // N×N taps spaced by spread × the pixel's derivatives, Gaussian-weighted; each tap
         // evaluates the lobe at the mip-averaged normal and the selection at the averaged g.
@@ -245,24 +347,17 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1) {
         float w = textureLod(u_glint_moments, f.tc, 0.0).x;
         glint = w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, textureLod(u_spread_moments, f.tc, 0.0).zw);
     } else {
-        // Ground truth: K×K jittered stratified taps of the finest level across the pixel.
-        int k = max(u_ground_truth_samples, 1);
-        for (int j = 0; j < k; ++j) {
-            for (int i = 0; i < k; ++i) {
-                vec2 o = stratum_offset(i, j, k);
-                vec2 tc = f.tc + o.x * f.dx + o.y * f.dy;
-                float w = textureLod(u_glint_moments, tc, 0.0).x;
-                vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
-                glint += w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, b);
-            }
-        }
-        glint /= float(k * k);
+        glint = ground_truth_factors(f, h0, h1);
     }
-    return glint * vec2(h0.fresnel, h1.fresnel);
+    return glint;
+#else
+    return sparkle ? sparkling_factors(f, h0, h1) : expected_factors(f, h0, h1);
+#endif
 }
 
 // Albedo and mean slope of the footprint (the ground truth averages its finest-level taps).
 void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
+#if defined SAND_PROBE
     if (u_glint_filter == FILTER_GROUND_TRUTH) {
         int k = max(u_ground_truth_samples, 1);
         albedo = vec3(0.0);
@@ -277,13 +372,16 @@ void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
         }
         albedo /= float(k * k);
         slope /= float(k * k);
-    } else if (u_glint_filter == FILTER_NONE) {
+        return;
+    }
+    if (u_glint_filter == FILTER_NONE) {
         albedo = textureLod(u_albedo, f.tc, 0.0).rgb;
         slope = textureLod(u_spread_moments, f.tc, 0.0).zw;
-    } else {
-        albedo = textureGrad(u_albedo, f.tc, f.dx, f.dy).rgb;
-        slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
+        return;
     }
+#endif
+    albedo = textureGrad(u_albedo, f.tc, f.dx, f.dy).rgb;
+    slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
 }
 
 // Subsurface-flavoured diffuse of the reference: a share fs of the light wraps around the grain
@@ -308,7 +406,8 @@ struct CloseTerms {
     float lod;
 };
 
-CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v) {
+// reference_look: the reference's glint instead (its gain and distance boost, no sparkle).
+CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     Footprint f;
     f.tc = s.uv * u_uv_scale;
     f.dx = dFdx(f.tc);
@@ -327,10 +426,18 @@ CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v) {
     vec3 lights[2] = vec3[2](L.sun_direction, L.moon_direction);
     vec3 irradiances[2] = vec3[2](L.sun_radiance, L.moon_radiance);
     vec3 l_t[2] = vec3[2](to_tangent(lights[0], s), to_tangent(lights[1], s));
-    vec2 glints = glint_factors(f, half_vector(l_t[0], v_t), half_vector(l_t[1], v_t));
+    HalfVector h[2] = HalfVector[2](half_vector(l_t[0], v_t), half_vector(l_t[1], v_t));
+    // A light that is off (below the horizon) draws no sparkle: it would only cost time.
+    h[0].valid = h[0].valid && dot(irradiances[0], irradiances[0]) > 0.0;
+    h[1].valid = h[1].valid && dot(irradiances[1], irradiances[1]) > 0.0;
+    vec2 glints = glint_factors(f, h[0], h[1], !reference_look);
+    // The reference's gain is the glints' brightness up close, where its distance boost is 1;
+    // further away the drawn sparkle keeps what the boost had to make up for.
+    float gain = REFERENCE_GLINT_GAIN;
+    if (reference_look) gain *= exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0));
     for (int i = 0; i < 2; ++i) {
         vec3 e = irradiances[i];
-        c.glint += e * (GLINT_GAIN * glints[i] * max(l_t[i].z, 0.0));
+        c.glint += e * (gain * glints[i] * h[i].fresnel * max(l_t[i].z, 0.0));
         c.radiance += grain_diffuse(albedo, dot(c.micro_normal, lights[i]), e, vec3(0.0));
         c.radiance += grain_transmission(albedo, lights[i], v, e);
     }
@@ -417,10 +524,11 @@ vec3 lod_colour(float t) {
 // Whether this program variant shades the point at all (see u_close_limit).
 bool sand_covers(vec3 position, vec3 eye, int mode) {
     bool beyond = distance(position, eye) > u_close_limit;
+    bool whole = mode == MODE_FULL || mode == MODE_REFERENCE_LOOK;
 #if defined SAND_FAR_ONLY
-    return mode == MODE_FULL && beyond;
+    return whole && beyond;
 #else
-    return mode != MODE_FULL || !beyond;
+    return !whole || !beyond;
 #endif
 }
 
@@ -438,13 +546,16 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
 #if defined SAND_FAR_ONLY
     return shade_far(s, L, v);
 #endif
-    if (mode == MODE_FULL && blend > u_close_cutoff) return shade_far(s, L, v);
-    CloseTerms close = shade_close(s, L, v);
+    if ((mode == MODE_FULL || mode == MODE_REFERENCE_LOOK) && blend > u_close_cutoff) return shade_far(s, L, v);
+    CloseTerms close = shade_close(s, L, v, mode == MODE_REFERENCE_LOOK);
 
     if (mode == MODE_CLOSE) return close.radiance;
     if (mode == MODE_GLINTS) return close.glint;
     if (mode == MODE_NORMALS) return close.micro_normal * 0.5 + 0.5;
     if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
     vec3 far = blend > 1e-4 ? shade_far(s, L, v) : vec3(0.0);
-    return mix(close.radiance, far, blend);
+    // Glints are specular light that the far BRDF (diffuse spheres) does not hold: they are
+    // added to the blend rather than blended away, and fade out before the close range ends.
+    float glint_fade = 1.0 - smoothstep(0.5 * u_close_limit, u_close_limit, distance_m);
+    return mix(close.radiance - close.glint, far, blend) + close.glint * glint_fade;
 }

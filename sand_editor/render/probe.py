@@ -26,9 +26,11 @@ class MaterialProbe:
         self.material = material
         ctx = self.ctx = material.ctx
         self.width, self.height = width, height
-        # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz.
-        self.program = program(ctx, "terrain.glsl", mode_defines())
-        self.far_program = program(ctx, "terrain.glsl", {**mode_defines(), "SAND_FAR_ONLY": 1})
+        # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz;
+        # compiled with the benchmark's glint filters (SAND_PROBE), which production lacks.
+        defines = {**mode_defines(), "SAND_PROBE": 1}
+        self.program = program(ctx, "terrain.glsl", defines)
+        self.far_program = program(ctx, "terrain.glsl", {**defines, "SAND_FAR_ONLY": 1})
         e = PLANE_HALF_EXTENT
         corners = np.array([[-e, -e], [e, -e], [e, e], [-e, -e], [e, e], [-e, e]])
         vertices = np.zeros((6, 11), dtype="f4")
@@ -95,5 +97,6 @@ class MaterialProbe:
         return np.ascontiguousarray(pixels[::-1, :, :3]), elapsed_ms
 
     def release(self) -> None:
-        for obj in (*self._vaos, self._buffer, self._fbo, self._colour, self._depth):
+        for obj in (*self._vaos, self._buffer, self._fbo, self._colour, self._depth, self.program,
+                    self.far_program):  # fmt: skip
             obj.release()
