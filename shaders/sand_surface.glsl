@@ -49,7 +49,6 @@ uniform float u_sigmoid_a;
 uniform float u_sigmoid_b;
 // The glint model: the physical one by default (sparkles of the sun's real radiance in grain
 // facets), or the reference's look (its gain and distance boost) in MODE_REFERENCE_LOOK.
-uniform float u_facet_share_scale;   // 1 / selection weight of the clearest grain (material.py)
 #if defined SAND_PROBE
 // Benchmark-only filters (sand_editor/render/probe.py compiles this variant): 0 ours (sparkles
 // drawn from the footprint's moments); 1 the expected value of those moments alone; 2 the
@@ -68,6 +67,9 @@ uniform float u_close_limit;
 
 const float REFERENCE_GLINT_GAIN = 5000.0;  // the reference's glint radiance scale
 const float REFERENCE_BOOST = 5.0;   // and its distance boost e^(5m), m the mip level / the top
+// Our glint brightness: the reference's at its boost level m = 0.4 (where it shows sand about a
+// metre away), the same at every distance, since the drawn sparkle loses no energy to make up.
+const float GLINT_GAIN = REFERENCE_GLINT_GAIN * 7.38905609893;  // e^(5·0.4)
 const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
 const float MIN_FACING = 0.05;       // least n·v of a shading normal
@@ -193,6 +195,7 @@ struct HalfVector {
     vec2 slope;      // of the half vector, in tangent space
     float variance;  // of the lobe about it, in slope space
     float fresnel;   // normalised to 1 at normal incidence
+    float cos_light; // of the light to the macro normal
 };
 
 HalfVector half_vector(vec3 l_t, vec3 v_t) {
@@ -201,6 +204,7 @@ HalfVector half_vector(vec3 l_t, vec3 v_t) {
     h.valid = l_t.z > 0.0 && v_t.z > 0.0 && half_slope(l_t, v_t, h.slope, v_dot_h);
     h.variance = lobe_variance(h.valid ? h.slope : vec2(0.0));
     h.fresnel = glint_fresnel(v_dot_h);
+    h.cos_light = max(l_t.z, 0.0);
     return h;
 }
 
@@ -221,11 +225,10 @@ vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1) {
                 h1.valid ? expected_glint(m, h1.slope, h1.variance) : 0.0);
 }
 
-// Facet slope density at the half vector of an expected glint E[w·lobe]: the lobe, peak 1, is
-// a Gaussian of integral 2π·variance, and w / (the clearest grain's w) is a grain's share of
-// mirror-like facets.
-float facet_density(float expected, HalfVector h) {
-    return expected * u_facet_share_scale / (2.0 * PI * h.variance);
+// The chance that one facet mirrors a light, from an expected glint E[w·lobe]: the expected
+// radiance over a mirroring facet's, R = F·E/Ω (glint_facets.glsl); E and F cancel.
+float mirror_chance(float expected, HalfVector h) {
+    return GLINT_GAIN * expected * h.cos_light * LIGHT_SOLID_ANGLE / SILICA_F0;
 }
 
 // Finest-level texels across the pixel's footprint (the side of a square of its area).
@@ -242,10 +245,10 @@ vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1) {
     vec2 ratio = vec2(0.0);
     if (expected.x > 0.0)
         ratio.x = sparkle_ratio(f.tc, texels, u_texture_size, facet_texels, h0.slope,
-                                facet_density(expected.x, h0), 0u);
+                                mirror_chance(expected.x, h0), 0u);
     if (expected.y > 0.0)
         ratio.y = sparkle_ratio(f.tc, texels, u_texture_size, facet_texels, h1.slope,
-                                facet_density(expected.y, h1), 1u);
+                                mirror_chance(expected.y, h1), 1u);
     return expected * ratio;
 }
 
@@ -263,26 +266,32 @@ vec2 stratum_offset(int i, int j, int k) {
 // n-th row and column (only far views, where a pixel holds tens of thousands of facets).
 const int GROUND_TRUTH_FACETS = 192;
 
-// Selection weight w of a facet where it mirrors each light (0 where not). The facet is tilted
-// from its grain's slope by its own Gaussian draw of the lobe's angular width.
-vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1, float r0, float r1) {
+// Whether a facet mirrors each light: with the chance its grain's expected glint gives it (its
+// texel at the finest level), drawn anew in every half-vector bin.
+vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1) {
     vec2 tc = (vec2(facet) + 0.5) / per_tile;
     float w = textureLod(u_glint_moments, tc, 0.0).x;
     if (w < 1e-6) return vec2(0.0);
     vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
-    uint h = hash_cell(ivec2(mod(vec2(facet), per_tile)), 0x5eedu);
-    float u1 = (float(h >> 16u) + 0.5) / 65536.0, u2 = float(h & 0xffffu) / 65536.0;
-    vec2 z = sqrt(-2.0 * log(u1)) * vec2(cos(2.0 * PI * u2), sin(2.0 * PI * u2));
-    float sigma = 0.5 / sqrt(max(u_glint_shininess, 0.1));  // the lobe's angular width
-    vec2 slope = b + z * sigma * (1.0 + dot(b, b));
-    return vec2(h0.valid && distance(slope, h0.slope) < r0 ? w : 0.0,
-                h1.valid && distance(slope, h1.slope) < r1 ? w : 0.0);
+    uint key = hash_cell(ivec2(mod(vec2(facet), per_tile)), 0x5eedu);
+    vec2 offset = vec2(open01(key), open01(lowbias32(key)));
+    vec2 mirrors = vec2(0.0);
+    if (h0.valid) {
+        float chance = mirror_chance(w * glint_lobe(b, h0.slope, h0.variance), h0);
+        mirrors.x = open01(hash_cell(half_vector_bin(h0.slope, offset), key)) < chance ? 1.0 : 0.0;
+    }
+    if (h1.valid) {
+        float chance = mirror_chance(w * glint_lobe(b, h1.slope, h1.variance), h1);
+        uint moon_key = lowbias32(key ^ 0x9e3779b9u);
+        mirrors.y = open01(hash_cell(half_vector_bin(h1.slope, offset), moon_key)) < chance ? 1.0 : 0.0;
+    }
+    return mirrors;
 }
 
 // Ground truth: every facet whose centre lies in the pixel's footprint (a parallelogram in
-// texture space); a facet mirrors a light when its slope lies in that light's cone of half
-// vectors.
-// Returned in the units of E[w·lobe], so that it compares with the other filters one to one.
+// texture space), each mirroring or not as drawn by facet_mirrors; returned in the units of
+// E[w·lobe] (mirroring share over the chance per unit of expected glint), so that it compares
+// with the other filters one to one.
 vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1) {
     float per_tile = max(floor(1.0 / (FACET_SIZE_M * u_uv_scale) + 0.5), 1.0);
     vec2 centre = f.tc * per_tile;
@@ -294,7 +303,6 @@ vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1) {
     float det = dx.x * dy.y - dx.y * dy.x;
     if (abs(det) < 1e-12) return vec2(0.0);
     mat2 to_pixel = inverse(mat2(dx, dy));
-    float r0 = cone_radius_slope(h0.slope), r1 = cone_radius_slope(h1.slope);
     vec2 mirrored = vec2(0.0);
     float inside = 0.0;
     for (int y = lo.y; y <= hi.y; y += stride) {
@@ -303,15 +311,17 @@ vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1) {
             vec2 ab = to_pixel * (vec2(facet) + 0.5 - centre);
             if (abs(ab.x) > 0.5 || abs(ab.y) > 0.5) continue;
             inside += 1.0;
-            mirrored += facet_mirrors(facet, per_tile, h0, h1, r0, r1);
+            mirrored += facet_mirrors(facet, per_tile, h0, h1);
         }
     }
     if (inside < 1.0) {
         // A footprint smaller than a facet: the facet under the pixel's centre.
-        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, h0, h1, r0, r1);
+        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, h0, h1);
         inside = 1.0;
     }
-    return mirrored / inside * vec2(2.0 * h0.variance / (r0 * r0), 2.0 * h1.variance / (r1 * r1));
+    vec2 per_unit = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1));
+    return vec2(per_unit.x > 0.0 ? mirrored.x / (inside * per_unit.x) : 0.0,
+                per_unit.y > 0.0 ? mirrored.y / (inside * per_unit.y) : 0.0);
 }
 #endif
 
@@ -431,10 +441,9 @@ CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) 
     h[0].valid = h[0].valid && dot(irradiances[0], irradiances[0]) > 0.0;
     h[1].valid = h[1].valid && dot(irradiances[1], irradiances[1]) > 0.0;
     vec2 glints = glint_factors(f, h[0], h[1], !reference_look);
-    // The reference's gain is the glints' brightness up close, where its distance boost is 1;
-    // further away the drawn sparkle keeps what the boost had to make up for.
-    float gain = REFERENCE_GLINT_GAIN;
-    if (reference_look) gain *= exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0));
+    float gain = reference_look
+        ? REFERENCE_GLINT_GAIN * exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0))
+        : GLINT_GAIN;
     for (int i = 0; i < 2; ++i) {
         vec3 e = irradiances[i];
         c.glint += e * (gain * glints[i] * h[i].fresnel * max(l_t[i].z, 0.0));

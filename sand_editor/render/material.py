@@ -23,8 +23,7 @@ RIPPLE_MAP_SIZE = 256
 # without the sparkle, "reference" the reference's N×N multisampling, "none" one finest tap, and
 # "ground-truth" every grain facet in the pixel.
 GLINT_FILTERS = {"ours": 0, "expected": 1, "reference": 2, "none": 3, "ground-truth": 4}
-# Glint values g are bytes / 256: the largest is 255/256.
-LARGEST_GLINT_VALUE = 255.0 / 256.0
+
 # Close-range work is skipped where the far term's blend weight is above this.
 CLOSE_CUTOFF = 0.999
 
@@ -54,15 +53,6 @@ def _periodic_gradient(height: np.ndarray) -> np.ndarray:
     du = (np.roll(height, -1, axis=1) - np.roll(height, 1, axis=1)) * (n / 2.0)
     dv = (np.roll(height, -1, axis=0) - np.roll(height, 1, axis=0)) * (n / 2.0)
     return np.stack([du, dv], axis=-1)
-
-
-def facet_share_scale(glint_mu: float, glint_sigma: float) -> float:
-    """1 / the selection weight of the clearest grain: a grain's share of mirror-like facets is
-    its selection weight over this one's (1 for the grain whose glint value is nearest μ)."""
-    nearest = min(max(glint_mu, 0.0), LARGEST_GLINT_VALUE)
-    exponent = 0.5 * ((nearest - glint_mu) / glint_sigma) ** 2
-    # Beyond e^69 no grain is selected at all (every w is 0 in float32): any finite scale will do.
-    return float(np.exp(min(exponent, 69.0)))
 
 
 def ripple_slopes(size: int, ripples: int, wiggles: int, sharpness: float, seed: int) -> np.ndarray:
@@ -219,7 +209,6 @@ class SandMaterial:
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
             u_texture_size=float(self.texture_size),
             u_max_lod=self.max_lod,
-            u_facet_share_scale=facet_share_scale(shading.glint_mu, shading.glint_sigma),
             u_glint_filter=GLINT_FILTERS[self.glint_filter],
             u_ground_truth_samples=int(self.ground_truth_samples),
             u_close_cutoff=float(self.close_cutoff),

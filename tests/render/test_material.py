@@ -47,13 +47,12 @@ def test_glints_are_present_close_up(probe):
     probe.material.update(Preset().replace(**{"shading.glint_mu": 0.9, "shading.glint_sigma": 0.2}))
     glints = shade(probe, 0.1, "glints") @ LUMINANCE
     diffuse = shade(probe, 0.1, "close") @ LUMINANCE - glints
-    # Sparkles: a few pixels, each far above the diffuse sand around it.
-    assert 0 < (glints > 0).mean() < 0.5
+    # Sparkles: the brightest far above the diffuse sand around them.
     assert glints.max() > 2 * np.median(diffuse)
-    # Their expected value covers many more pixels, dimly.
+    # Their expected value covers more pixels, more dimly.
     probe.material.glint_filter = "expected"
     expected = shade(probe, 0.1, "glints") @ LUMINANCE
-    assert (expected > 0).mean() > 0.01
+    assert (expected > 0).mean() > max((glints > 0).mean(), 0.01)
     assert expected.max() < glints.max()
 
 
