@@ -65,35 +65,87 @@ float poisson_count(float lambda, uint h) {
     return max(k, 1.0);
 }
 
-// The drawn count of mirroring facets over its expectation, for one light.
-//   tc: texture coordinates (tiles, the texture repeats every tile)
-//   texels: the pixel's footprint in finest-level texels;  texture_size: texels per tile
-//   facet_texels: a facet's edge in finest-level texels
-//   mirror_chance: P, the chance that one facet mirrors the light (expected radiance / R)
+// Patches expecting at most this many mirroring facets place them one by one.
+const int PLACED_FACETS = 16;
+
+// The patches a pixel's footprint draws its facets from: texels of a mip level at least as wide
+// as the footprint, so that it overlaps at most 2×2 of them. Between two levels the coarser is
+// taken with the fractional level's chance, decided per coarse patch, so that zooming changes
+// patches a few at a time. Levels go past the top of the texture's pyramid far away (patches
+// of several tiles).
+struct Patches {
+    bool valid;
+    float level;          // of the patches (log2 of their edge in finest-level texels)
+    float size;           // their edge in finest-level texels
+    float per_tile;       // patches per tile edge (at least 1)
+    float facets;         // facets in one patch
+    float pixel_facets;   // facets in the pixel's footprint
+    ivec2 first;          // the lower-left patch the footprint overlaps
+    vec2 texel;           // the footprint's centre, finest-level texels within the tile
+    vec2 extent;          // its bounding box
+    mat2 to_pixel;        // texels from the centre → footprint coordinates (|a|, |b| ≤ ½ inside)
+};
+
+//   tc, dx, dy: texture coordinates (tiles; the texture repeats every tile) and their screen
+//       derivatives: the footprint is the parallelogram tc + a·dx + b·dy, |a|, |b| ≤ ½
+//   texture_size: finest-level texels per tile;  facet_texels: a facet's edge in those texels
+Patches footprint_patches(vec2 tc, vec2 dx, vec2 dy, float texture_size, float facet_texels) {
+    Patches p;
+    vec2 px = dx * texture_size, py = dy * texture_size;
+    float det = px.x * py.y - px.y * py.x;
+    float facet_area = facet_texels * facet_texels;
+    p.valid = abs(det) > 1e-12;
+    p.pixel_facets = abs(det) / facet_area;
+    p.to_pixel = p.valid ? inverse(mat2(px, py)) : mat2(0.0);
+    p.extent = abs(px) + abs(py);
+    float level = max(log2(max(max(p.extent.x, p.extent.y), facet_texels)), 0.0);
+    float fine = ceil(level);
+    p.texel = fract(tc) * texture_size;
+    ivec2 coarse_cell = ivec2(p.texel / exp2(fine + 1.0));
+    bool take_coarse = hash01(hash_cell(coarse_cell, uint(fine + 1.0) * 4u + 1u)) < level - floor(level);
+    p.level = take_coarse ? fine + 1.0 : fine;
+    p.size = exp2(p.level);
+    p.per_tile = max(floor(texture_size / p.size + 0.5), 1.0);
+    p.facets = p.size * p.size / facet_area;
+    p.first = ivec2(floor((p.texel - 0.5 * p.extent) / p.size));
+    return p;
+}
+
+// Texture coordinates (tiles) of a patch's centre: where its mip texel is.
+vec2 patch_centre(Patches p, ivec2 cell, float texture_size) {
+    return (vec2(cell) + 0.5) * p.size / texture_size;
+}
+
+// How many of a patch's mirroring facets (Poisson, mean lambda: the patch's own facets times
+// their chance, a property of the patch alone) lie in the pixel's footprint. They are placed at
+// hashed points of the patch, so a sparkle crosses from pixel to pixel as the surface moves
+// under the camera, and the pixel's count is Poisson with its own mean, as real facets give.
 //   light: 0 sun, 1 moon (their facets are drawn independently)
-float sparkle_ratio(vec2 tc, float texels, float texture_size, float facet_texels, vec2 b_half,
-                    float mirror_chance, uint light) {
-    // Patches as large as the footprint (no smaller than a facet): between two mip levels the
-    // coarser is taken with the fractional level's probability, decided per coarse patch, which
-    // keeps the count's spread near that of a patch the pixel's size.
-    float top = log2(texture_size);
-    float level = clamp(log2(max(max(texels, facet_texels), 1e-8)), 0.0, top);
-    float fine = floor(level);
-    float coarse = min(fine + 1.0, top);
-    vec2 wrapped = fract(tc);
-    ivec2 coarse_cell = ivec2(wrapped * exp2(top - coarse));
-    bool take_coarse = hash01(hash_cell(coarse_cell, uint(coarse) * 4u + 1u)) < level - fine;
-    float chosen = take_coarse ? coarse : fine;
-    ivec2 cell = ivec2(wrapped * exp2(top - chosen));
-    float cell_texels = exp2(chosen);
-    float facets = max(cell_texels * cell_texels / (facet_texels * facet_texels), 1.0);
-    float lambda = facets * min(mirror_chance, 1.0);
-    if (!(lambda > 0.0)) return 1.0;
+float facets_in_pixel(Patches p, ivec2 cell, float lambda, vec2 b_half, uint light) {
+    if (!(lambda > 0.0)) return 0.0;
+    ivec2 wrapped = ivec2(mod(vec2(cell), p.per_tile));
+    uint patch_key = hash_cell(wrapped, uint(p.level) * 4u + light * 2u);
     // Half-vector bins one cone across, their grid offset per patch so that bin edges are not
     // lines across the image.
-    uint patch_key = hash_cell(cell, uint(chosen) * 4u + light * 2u);
     vec2 offset = vec2(open01(patch_key), open01(lowbias32(patch_key)));
-    ivec2 bin = half_vector_bin(b_half, offset);
-    float count = poisson_count(lambda, hash_cell(bin, patch_key));
-    return count / lambda;
+    uint key = hash_cell(half_vector_bin(b_half, offset), patch_key);
+    if (lambda > float(PLACED_FACETS)) {
+        // Many facets: those inside the footprint are Poisson with the patch's mean times the
+        // share of it the footprint covers (its bounding box's share, scaled to its area).
+        vec2 lo = max(vec2(cell) * p.size, p.texel - 0.5 * p.extent);
+        vec2 hi = min(vec2(cell + 1) * p.size, p.texel + 0.5 * p.extent);
+        vec2 overlap = max(hi - lo, 0.0);
+        float box = max(p.extent.x * p.extent.y, 1e-30);
+        return poisson_count(lambda * overlap.x * overlap.y / box * p.pixel_facets / p.facets, key);
+    }
+    float facets = poisson_count(lambda, key);
+    float count = 0.0;
+    for (int k = 0; k < PLACED_FACETS; ++k) {
+        if (float(k) >= facets) break;
+        key = lowbias32(key + 0x9e3779b9u);
+        vec2 at = (vec2(cell) + vec2(open01(key), open01(lowbias32(key)))) * p.size;
+        vec2 ab = p.to_pixel * (at - p.texel);
+        count += abs(ab.x) <= 0.5 && abs(ab.y) <= 0.5 ? 1.0 : 0.0;
+    }
+    return count;
 }

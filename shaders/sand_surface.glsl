@@ -53,7 +53,8 @@ uniform float u_sigmoid_b;
 // Benchmark-only filters (sand_editor/render/probe.py compiles this variant): 0 ours (sparkles
 // drawn from the footprint's moments); 1 the expected value of those moments alone; 2 the
 // reference's N×N multisampling of mipmapped normals; 3 none (one tap of the finest level);
-// 4 ground truth (every facet in the pixel, explicitly).
+// 4 ground truth (every facet in the pixel, explicitly); 5 and 6: the expectations of 0 and 4
+// over their draws (no sparkle), which measure energy free of the draws' noise.
 uniform int u_glint_filter;
 uniform int u_ground_truth_samples;  // K: K×K jittered samples of albedo and slope
 #endif
@@ -80,6 +81,8 @@ const float HOLE_SCALE2 = 0.25;      // s₀², width² of the slope hole probe 
 #define FILTER_REFERENCE 2
 #define FILTER_NONE 3
 #define FILTER_GROUND_TRUTH 4
+#define FILTER_OURS_MEAN 5
+#define FILTER_GROUND_TRUTH_MEAN 6
 
 float blend_weight(float distance_m) {
     // Clamped so exp() never overflows at 1 km with a steep sigmoid.
@@ -213,10 +216,14 @@ vec2 lobes(HalfVector h0, HalfVector h1, vec2 b) {
                 h1.valid ? glint_lobe(b, h1.slope, h1.variance) : 0.0);
 }
 
-// The expected glint E[w·lobe] of two lights over the footprint of the reference's N×N kernel
-// (the preset's sample count × spread pixels), from one trilinear fetch per moment texture.
-vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1) {
-    float widen = max(1.0, float(u_sample_count) * u_sample_spread);
+// The footprint of the reference's N×N kernel: the preset's sample count × spread pixels.
+float reference_footprint() {
+    return max(1.0, float(u_sample_count) * u_sample_spread);
+}
+
+// The expected glint E[w·lobe] of two lights over the footprint widened by `widen` pixels, from
+// one trilinear fetch per moment texture.
+vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1, float widen) {
     vec2 gx = f.dx * widen, gy = f.dy * widen;
     SlopeMoments m = slope_moments(textureGrad(u_glint_moments, f.tc, gx, gy),
                                    textureGrad(u_spread_moments, f.tc, gx, gy),
@@ -231,25 +238,37 @@ float mirror_chance(float expected, HalfVector h) {
     return GLINT_GAIN * expected * h.cos_light * LIGHT_SOLID_ANGLE / SILICA_F0;
 }
 
-// Finest-level texels across the pixel's footprint (the side of a square of its area).
-float footprint_texels(Footprint f) {
-    return sqrt(abs(f.dx.x * f.dy.y - f.dx.y * f.dy.x)) * u_texture_size;
-}
-
-// The expected glints with each light's sparkle drawn: the count of mirroring facets in the
-// footprint, over its expectation (glint_facets.glsl).
-vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1) {
-    vec2 expected = expected_factors(f, h0, h1);
-    float texels = footprint_texels(f);
+// The glints with each light's sparkle drawn (glint_facets.glsl): the mirroring facets of
+// the patches under the footprint, each patch's chance from its own mip texel's moments, so
+// that the draw belongs to the surface alone; returned in the units of E[w·lobe]. Without
+// `draw`, the expectation alone: the pixel's footprint's expected glint.
+vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
+    if (!draw) return expected_factors(f, h0, h1, 1.0);
     float facet_texels = FACET_SIZE_M * u_uv_scale * u_texture_size;
-    vec2 ratio = vec2(0.0);
-    if (expected.x > 0.0)
-        ratio.x = sparkle_ratio(f.tc, texels, u_texture_size, facet_texels, h0.slope,
-                                mirror_chance(expected.x, h0), 0u);
-    if (expected.y > 0.0)
-        ratio.y = sparkle_ratio(f.tc, texels, u_texture_size, facet_texels, h1.slope,
-                                mirror_chance(expected.y, h1), 1u);
-    return expected * ratio;
+    Patches p = footprint_patches(f.tc, f.dx, f.dy, u_texture_size, facet_texels);
+    vec2 per_facet = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1)) * p.pixel_facets;
+    if (!p.valid || !(max(per_facet.x, per_facet.y) > 0.0)) return vec2(0.0);
+    float lod = min(p.level, u_max_lod);
+    vec2 count = vec2(0.0);
+    for (int j = 0; j < 2; ++j) {
+        for (int i = 0; i < 2; ++i) {
+            ivec2 cell = p.first + ivec2(i, j);
+            vec2 tc = patch_centre(p, cell, u_texture_size);
+            SlopeMoments m = slope_moments(textureLod(u_glint_moments, tc, lod),
+                                           textureLod(u_spread_moments, tc, lod),
+                                           textureLod(u_hole_moments, tc, lod).x);
+            if (h0.valid) {
+                float chance = mirror_chance(expected_glint(m, h0.slope, h0.variance), h0);
+                count.x += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), h0.slope, 0u);
+            }
+            if (h1.valid) {
+                float chance = mirror_chance(expected_glint(m, h1.slope, h1.variance), h1);
+                count.y += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), h1.slope, 1u);
+            }
+        }
+    }
+    return vec2(per_facet.x > 0.0 ? count.x / per_facet.x : 0.0,
+                per_facet.y > 0.0 ? count.y / per_facet.y : 0.0);
 }
 
 #if defined SAND_PROBE
@@ -264,11 +283,11 @@ vec2 stratum_offset(int i, int j, int k) {
 
 // Facets per axis the ground truth visits at most in one pixel; past that it visits every
 // n-th row and column (only far views, where a pixel holds tens of thousands of facets).
-const int GROUND_TRUTH_FACETS = 192;
+const int GROUND_TRUTH_FACETS = 128;
 
 // Whether a facet mirrors each light: with the chance its grain's expected glint gives it (its
-// texel at the finest level), drawn anew in every half-vector bin.
-vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1) {
+// texel at the finest level), drawn anew in every half-vector bin; without `draw`, the chance.
+vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1, bool draw) {
     vec2 tc = (vec2(facet) + 0.5) / per_tile;
     float w = textureLod(u_glint_moments, tc, 0.0).x;
     if (w < 1e-6) return vec2(0.0);
@@ -277,13 +296,14 @@ vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1) {
     vec2 offset = vec2(open01(key), open01(lowbias32(key)));
     vec2 mirrors = vec2(0.0);
     if (h0.valid) {
-        float chance = mirror_chance(w * glint_lobe(b, h0.slope, h0.variance), h0);
-        mirrors.x = open01(hash_cell(half_vector_bin(h0.slope, offset), key)) < chance ? 1.0 : 0.0;
+        float chance = min(mirror_chance(w * glint_lobe(b, h0.slope, h0.variance), h0), 1.0);
+        float u = open01(hash_cell(half_vector_bin(h0.slope, offset), key));
+        mirrors.x = draw ? (u < chance ? 1.0 : 0.0) : chance;
     }
     if (h1.valid) {
-        float chance = mirror_chance(w * glint_lobe(b, h1.slope, h1.variance), h1);
-        uint moon_key = lowbias32(key ^ 0x9e3779b9u);
-        mirrors.y = open01(hash_cell(half_vector_bin(h1.slope, offset), moon_key)) < chance ? 1.0 : 0.0;
+        float chance = min(mirror_chance(w * glint_lobe(b, h1.slope, h1.variance), h1), 1.0);
+        float u = open01(hash_cell(half_vector_bin(h1.slope, offset), lowbias32(key ^ 0x9e3779b9u)));
+        mirrors.y = draw ? (u < chance ? 1.0 : 0.0) : chance;
     }
     return mirrors;
 }
@@ -292,7 +312,7 @@ vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1) {
 // texture space), each mirroring or not as drawn by facet_mirrors; returned in the units of
 // E[w·lobe] (mirroring share over the chance per unit of expected glint), so that it compares
 // with the other filters one to one.
-vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1) {
+vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
     float per_tile = max(floor(1.0 / (FACET_SIZE_M * u_uv_scale) + 0.5), 1.0);
     vec2 centre = f.tc * per_tile;
     vec2 dx = f.dx * per_tile, dy = f.dy * per_tile;
@@ -311,12 +331,12 @@ vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1) {
             vec2 ab = to_pixel * (vec2(facet) + 0.5 - centre);
             if (abs(ab.x) > 0.5 || abs(ab.y) > 0.5) continue;
             inside += 1.0;
-            mirrored += facet_mirrors(facet, per_tile, h0, h1);
+            mirrored += facet_mirrors(facet, per_tile, h0, h1, draw);
         }
     }
     if (inside < 1.0) {
         // A footprint smaller than a facet: the facet under the pixel's centre.
-        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, h0, h1);
+        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, h0, h1, draw);
         inside = 1.0;
     }
     vec2 per_unit = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1));
@@ -331,9 +351,11 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
 #if defined SAND_PROBE
     vec2 glint = vec2(0.0);
     if (u_glint_filter == FILTER_OURS) {
-        glint = sparkle ? sparkling_factors(f, h0, h1) : expected_factors(f, h0, h1);
+        glint = sparkle ? sparkling_factors(f, h0, h1, true) : expected_factors(f, h0, h1, reference_footprint());
+    } else if (u_glint_filter == FILTER_OURS_MEAN) {
+        glint = sparkling_factors(f, h0, h1, false);
     } else if (u_glint_filter == FILTER_EXPECTED) {
-        glint = expected_factors(f, h0, h1);
+        glint = expected_factors(f, h0, h1, reference_footprint());
     } else if (u_glint_filter == FILTER_REFERENCE) {
         // N×N taps spaced by spread × the pixel's derivatives, Gaussian-weighted; each tap
         // evaluates the lobe at the mip-averaged normal and the selection at the averaged g.
@@ -357,11 +379,11 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
         float w = textureLod(u_glint_moments, f.tc, 0.0).x;
         glint = w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, textureLod(u_spread_moments, f.tc, 0.0).zw);
     } else {
-        glint = ground_truth_factors(f, h0, h1);
+        glint = ground_truth_factors(f, h0, h1, u_glint_filter == FILTER_GROUND_TRUTH);
     }
     return glint;
 #else
-    return sparkle ? sparkling_factors(f, h0, h1) : expected_factors(f, h0, h1);
+    return sparkle ? sparkling_factors(f, h0, h1, true) : expected_factors(f, h0, h1, reference_footprint());
 #endif
 }
 

@@ -81,8 +81,13 @@ class MaterialProbe:
         shift[1, 3] = 2.0 * shift_px[1] / self.height
         return Camera(view=camera.view, projection=(shift @ camera.projection).astype(np.float32))
 
-    def render(self, camera: Camera, mode: str = "full") -> tuple[np.ndarray, float]:
-        """HDR radiance (height, width, 3), rows top-down, and the GPU time in milliseconds."""
+    def render(
+        self, camera: Camera, mode: str = "full", lower_half: bool = False
+    ) -> tuple[np.ndarray, float]:
+        """HDR radiance (height, width, 3), rows top-down, and the GPU time in milliseconds.
+
+        ``lower_half`` shades only the frame's lower half (the rest stays 0): the sand nearest
+        the camera, where a pixel's footprint is the view's own, not a grazing streak."""
         sun = self.sun_direction / np.linalg.norm(self.sun_direction)
         lights = {
             "u_eye": camera.position,
@@ -105,10 +110,15 @@ class MaterialProbe:
             self.ctx.enable(moderngl.DEPTH_TEST)
             self.ctx.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self.ctx.finish()
+            if lower_half:
+                self.ctx.scissor = (0, 0, self.width, self.height // 2)
             start = time.perf_counter()
-            for vao in self._vaos:
-                vao.render(moderngl.TRIANGLES)
-            self.ctx.finish()
+            try:
+                for vao in self._vaos:
+                    vao.render(moderngl.TRIANGLES)
+                self.ctx.finish()
+            finally:
+                self.ctx.scissor = None
             elapsed_ms = (time.perf_counter() - start) * 1e3
         pixels = np.frombuffer(self._colour.read(), dtype=np.float32).reshape(
             self.height, self.width, 4

@@ -47,13 +47,17 @@ def test_glints_are_present_close_up(probe):
     probe.material.update(Preset().replace(**{"shading.glint_mu": 0.9, "shading.glint_sigma": 0.2}))
     glints = shade(probe, 0.1, "glints") @ LUMINANCE
     diffuse = shade(probe, 0.1, "close") @ LUMINANCE - glints
-    # Sparkles: the brightest far above the diffuse sand around them.
+    # Glints are highlights: the brightest are far above the diffuse sand around them.
     assert glints.max() > 2 * np.median(diffuse)
-    # Their expected value covers more pixels, more dimly.
+
+
+def test_sparkles_concentrate_the_expected_glint_into_few_bright_pixels(probe):
+    sparkles = shade(probe, 0.3, "glints") @ LUMINANCE
     probe.material.glint_filter = "expected"
-    expected = shade(probe, 0.1, "glints") @ LUMINANCE
-    assert (expected > 0).mean() > max((glints > 0).mean(), 0.01)
-    assert expected.max() < glints.max()
+    expected = shade(probe, 0.3, "glints") @ LUMINANCE
+    assert (expected > 0).mean() > 0.2
+    assert 0 < (sparkles > 0).mean() < 0.2 * (expected > 0).mean()
+    assert sparkles.max() > 10 * expected.max()
 
 
 def test_no_glints_far_away_only_the_brdf(probe):
