@@ -285,9 +285,10 @@ vec2 stratum_offset(int i, int j, int k) {
 // n-th row and column (only far views, where a pixel holds tens of thousands of facets).
 const int GROUND_TRUTH_FACETS = 128;
 
-// Whether a facet mirrors each light: with the chance its grain's expected glint gives it (its
-// texel at the finest level), drawn anew in every half-vector bin; without `draw`, the chance.
+// Whether a facet mirrors each light: with the chance its grain's expected glint gives it (at
+// its centre, on the finest level), drawn anew in every half-vector bin; without `draw`, the chance.
 vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1, bool draw) {
+    // The finest level as the renderer shows it up close: texels interpolated.
     vec2 tc = (vec2(facet) + 0.5) / per_tile;
     float w = textureLod(u_glint_moments, tc, 0.0).x;
     if (w < 1e-6) return vec2(0.0);

@@ -231,3 +231,58 @@ def test_the_two_eyes_of_a_stereo_pair_see_different_sparkles(probe):
     assert (left > 0).sum() > 3 and (right_eye > 0).sum() > 3
     both = ((left > 0) & (right_eye > 0)).sum()
     assert both < 0.5 * min((left > 0).sum(), (right_eye > 0).sum())
+
+
+@pytest.fixture(scope="module")
+def fine_probe(gl_ctx):
+    # Grain textures fine enough that a 200 µm facet is under a texel: the ground truth's facets
+    # then see the grains as the renderer does.
+    material = SandMaterial(gl_ctx, 512)
+    material.update(Preset())
+    probe = MaterialProbe(material, 96, 72)
+    yield probe
+    probe.release()
+    material.release()
+
+
+def _lower_half_glints(probe, glint_filter, distance, views=4):
+    from sand_editor.render.camera import camera_at_distance
+
+    probe.material.glint_filter = glint_filter
+    try:
+        frames = []
+        for view in range(views):
+            target = (0.37 * view * distance, 0.23 * view * distance)
+            camera = camera_at_distance(distance, 45.0, 96 / 72, target_xz=target)
+            image = probe.render(camera, "glints", lower_half=True)[0] @ LUMINANCE
+            assert np.isfinite(image).all()
+            frames.append(image[36:])
+        return np.stack(frames)
+    finally:
+        probe.material.glint_filter = "ours"
+
+
+@pytest.mark.slow
+def test_sparkles_appear_where_the_ground_truth_has_them_with_its_statistics(fine_probe):
+    ours = _lower_half_glints(fine_probe, "ours", 1.0)
+    truth = _lower_half_glints(fine_probe, "ground-truth", 1.0)
+    expected = _lower_half_glints(fine_probe, "ground-truth-mean", 1.0)
+    # Only where some facet could mirror the sun.
+    assert (expected[ours > 0] > 0).all()
+    # Per-pixel spread and energy of the ground truth's sparkles.
+    cv = {name: img.std() / img.mean() for name, img in (("ours", ours), ("truth", truth))}
+    assert abs(cv["ours"] / cv["truth"] - 1) < 0.3, cv
+    assert abs(ours.mean() / truth.mean() - 1) < 0.2
+    assert abs((ours > 0).mean() / (truth > 0).mean() - 1) < 0.3
+    # Where the ground truth sparkles more (bands of the view whose half vectors meet more
+    # facets), so do ours.
+    bands = lambda img: (img > 0).reshape(img.shape[0], 6, 6, 96).mean(axis=(0, 2, 3))  # noqa: E731
+    assert np.corrcoef(bands(ours), bands(truth))[0, 1] > 0.5
+
+
+@pytest.mark.parametrize("glint_filter", ["ground-truth", "ours-mean", "ground-truth-mean"])
+@pytest.mark.parametrize(("distance", "pitch"), [(0.001, 45.0), (1000.0, 45.0), (1.0, 1.0)])
+def test_benchmark_filters_are_finite_at_hard_views(probe, glint_filter, distance, pitch):
+    probe.material.glint_filter = glint_filter
+    image = shade(probe, distance, "glints", pitch)
+    assert image.min() >= 0.0
