@@ -111,6 +111,13 @@ Patches footprint_patches(vec2 tc, vec2 dx, vec2 dy, float texture_size, float f
     return p;
 }
 
+// Whether a patch meets the footprint's bounding box (of the 2×2, often only one or two do).
+bool patch_overlaps(Patches p, ivec2 cell) {
+    vec2 lo = max(vec2(cell) * p.size, p.texel - 0.5 * p.extent);
+    vec2 hi = min(vec2(cell + 1) * p.size, p.texel + 0.5 * p.extent);
+    return all(greaterThan(hi, lo));
+}
+
 // Texture coordinates (tiles) of a patch's centre: where its mip texel is.
 vec2 patch_centre(Patches p, ivec2 cell, float texture_size) {
     return (vec2(cell) + 0.5) * p.size / texture_size;

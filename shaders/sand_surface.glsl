@@ -4,11 +4,11 @@
 // colour on the rippled macro normal; between them the preset's sigmoid of distance. Uniforms are
 // set by sand_editor/render/material.py (SandMaterial.bind).
 //
-// Glints are filtered by moments (LEAN mapping, Olano & Baker 2010): the material's mipmaps hold
-// the w-weighted mean and covariance of grain-normal slopes, w being each grain's glint selection
-// weight, so the expected glint of a whole footprint is one closed-form Gaussian integral per
-// light instead of many taps. The footprint is the one the reference's N×N multisampling covers
-// (sample_count × sample_spread pixels), fetched once with anisotropic trilinear filtering.
+// Glints: their expected value comes from moments (LEAN mapping, Olano & Baker 2010): the
+// material's mipmaps hold the w-weighted mean and covariance of grain-normal slopes, w being each
+// grain's glint selection weight, so the expected glint of a whole footprint is one closed-form
+// Gaussian integral per light instead of many taps. From it each pixel draws its sparkle: the
+// grain facets that mirror the sun in its footprint (glint_facets.glsl).
 
 #include "common.glsl"
 #include "glint_facets.glsl"
@@ -47,8 +47,8 @@ uniform float u_ripple_strength;
 uniform float u_detail_strength;
 uniform float u_sigmoid_a;
 uniform float u_sigmoid_b;
-// The glint model: the physical one by default (sparkles of the sun's real radiance in grain
-// facets), or the reference's look (its gain and distance boost) in MODE_REFERENCE_LOOK.
+// Glints are drawn sparkles (glint_facets.glsl), except in MODE_REFERENCE_LOOK: the reference's
+// look, its gain and distance boost on the expected glint.
 #if defined SAND_PROBE
 // Benchmark-only filters (sand_editor/render/probe.py compiles this variant): 0 ours (sparkles
 // drawn from the footprint's moments); 1 the expected value of those moments alone; 2 the
@@ -187,9 +187,14 @@ float glint_fresnel(float v_dot_h) {
 }
 
 struct Footprint {
-    vec2 tc;     // texture coordinates (tiles)
-    vec2 dx;     // screen derivatives of tc
+    vec2 tc;       // texture coordinates (tiles)
+    vec2 dx;       // screen derivatives of tc
     vec2 dy;
+    // In tangent space: from the pixel's point to the eye (metres), and towards each light
+    // (lit: the light is on and above the surface).
+    vec3 to_eye;
+    vec3 light0, light1;
+    bool lit0, lit1;
 };
 
 // One light's half vector, as the glint lobe needs it.
@@ -209,6 +214,19 @@ HalfVector half_vector(vec3 l_t, vec3 v_t) {
     h.fresnel = glint_fresnel(v_dot_h);
     h.cos_light = max(l_t.z, 0.0);
     return h;
+}
+
+// The half vectors of both lights at a point `offset` tiles along the surface from the pixel's
+// centre: each facet sees the eye from where it lies, so its mirror state belongs to it, not to
+// the pixel that happens to cover it.
+void half_vectors_at(Footprint f, vec2 offset, out HalfVector h0, out HalfVector h1) {
+    vec3 to_eye = f.to_eye - vec3(offset / u_uv_scale, 0.0);
+    float distance_m = length(to_eye);
+    vec3 v = distance_m > 0.0 ? to_eye / distance_m : vec3(0.0, 0.0, 1.0);
+    h0 = half_vector(f.light0, v);
+    h1 = half_vector(f.light1, v);
+    h0.valid = h0.valid && f.lit0;
+    h1.valid = h1.valid && f.lit1;
 }
 
 vec2 lobes(HalfVector h0, HalfVector h1, vec2 b) {
@@ -253,17 +271,22 @@ vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
     for (int j = 0; j < 2; ++j) {
         for (int i = 0; i < 2; ++i) {
             ivec2 cell = p.first + ivec2(i, j);
+            if (!patch_overlaps(p, cell)) continue;
             vec2 tc = patch_centre(p, cell, u_texture_size);
-            SlopeMoments m = slope_moments(textureLod(u_glint_moments, tc, lod),
-                                           textureLod(u_spread_moments, tc, lod),
+            vec4 glint_moments = textureLod(u_glint_moments, tc, lod);
+            if (glint_moments.x < 1e-6) continue;  // no selected grain: expected_glint is 0
+            SlopeMoments m = slope_moments(glint_moments, textureLod(u_spread_moments, tc, lod),
                                            textureLod(u_hole_moments, tc, lod).x);
-            if (h0.valid) {
-                float chance = mirror_chance(expected_glint(m, h0.slope, h0.variance), h0);
-                count.x += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), h0.slope, 0u);
+            HalfVector p0, p1;
+            half_vectors_at(f, (vec2(cell) + 0.5) * p.size / u_texture_size - p.texel / u_texture_size,
+                            p0, p1);
+            if (p0.valid) {
+                float chance = mirror_chance(expected_glint(m, p0.slope, p0.variance), p0);
+                count.x += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), p0.slope, 0u);
             }
-            if (h1.valid) {
-                float chance = mirror_chance(expected_glint(m, h1.slope, h1.variance), h1);
-                count.y += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), h1.slope, 1u);
+            if (p1.valid) {
+                float chance = mirror_chance(expected_glint(m, p1.slope, p1.variance), p1);
+                count.y += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), p1.slope, 1u);
             }
         }
     }
@@ -287,12 +310,14 @@ const int GROUND_TRUTH_FACETS = 128;
 
 // Whether a facet mirrors each light: with the chance its grain's expected glint gives it (at
 // its centre, on the finest level), drawn anew in every half-vector bin; without `draw`, the chance.
-vec2 facet_mirrors(ivec2 facet, float per_tile, HalfVector h0, HalfVector h1, bool draw) {
+vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
     // The finest level as the renderer shows it up close: texels interpolated.
     vec2 tc = (vec2(facet) + 0.5) / per_tile;
     float w = textureLod(u_glint_moments, tc, 0.0).x;
     if (w < 1e-6) return vec2(0.0);
     vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
+    HalfVector h0, h1;
+    half_vectors_at(f, tc - f.tc, h0, h1);
     uint key = hash_cell(ivec2(mod(vec2(facet), per_tile)), 0x5eedu);
     vec2 offset = vec2(open01(key), open01(lowbias32(key)));
     vec2 mirrors = vec2(0.0);
@@ -332,12 +357,12 @@ vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) 
             vec2 ab = to_pixel * (vec2(facet) + 0.5 - centre);
             if (abs(ab.x) > 0.5 || abs(ab.y) > 0.5) continue;
             inside += 1.0;
-            mirrored += facet_mirrors(facet, per_tile, h0, h1, draw);
+            mirrored += facet_mirrors(facet, per_tile, f, draw);
         }
     }
     if (inside < 1.0) {
         // A footprint smaller than a facet: the facet under the pixel's centre.
-        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, h0, h1, draw);
+        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, f, draw);
         inside = 1.0;
     }
     vec2 per_unit = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1));
@@ -453,16 +478,19 @@ CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) 
     vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
     c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
 
-    vec3 v_t = to_tangent(v, s);
     c.radiance = vec3(0.0);
     c.glint = vec3(0.0);
     vec3 lights[2] = vec3[2](L.sun_direction, L.moon_direction);
     vec3 irradiances[2] = vec3[2](L.sun_radiance, L.moon_radiance);
     vec3 l_t[2] = vec3[2](to_tangent(lights[0], s), to_tangent(lights[1], s));
-    HalfVector h[2] = HalfVector[2](half_vector(l_t[0], v_t), half_vector(l_t[1], v_t));
+    f.to_eye = to_tangent(L.eye - s.position, s);
+    f.light0 = l_t[0];
+    f.light1 = l_t[1];
     // A light that is off (below the horizon) draws no sparkle: it would only cost time.
-    h[0].valid = h[0].valid && dot(irradiances[0], irradiances[0]) > 0.0;
-    h[1].valid = h[1].valid && dot(irradiances[1], irradiances[1]) > 0.0;
+    f.lit0 = dot(irradiances[0], irradiances[0]) > 0.0;
+    f.lit1 = dot(irradiances[1], irradiances[1]) > 0.0;
+    HalfVector h[2];
+    half_vectors_at(f, vec2(0.0), h[0], h[1]);
     vec2 glints = glint_factors(f, h[0], h[1], !reference_look);
     float gain = reference_look
         ? REFERENCE_GLINT_GAIN * exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0))

@@ -98,7 +98,7 @@ class Bench:
         self._ldr = self.ctx.texture((width, height), 4)
         self._ldr_fbo = self.ctx.framebuffer([self._ldr])
         self.exposure = self._probe_exposure()
-        self.repeats = 2 if quick else 3
+        self.repeats = 3 if quick else 7
         # Views of other sand (targets along the plane) pooled into each statistic.
         self.views = 2 if quick else 4
         self.ground_truth_samples = 4 if quick else 8  # K×K for the ground truth's albedo
@@ -157,6 +157,7 @@ class Bench:
             stats_views = self.views if distance in TARGET_DISTANCES else 1
             truth_energy = luminance(self.shade(distance, "glints", "ground-truth-mean")[0]).mean()
             per_approach = {}
+            costs = self.costs_ms(distance)
             for approach in ("ground-truth", *APPROACHES):
                 glints = [luminance(self.shade(distance, "glints", approach, v)[0])
                           for v in range(stats_views)]  # fmt: skip
@@ -167,11 +168,11 @@ class Bench:
                           for v in range(stats_views)]  # fmt: skip
                 row["sparkle_fraction"] = float(np.mean([sparkle_fraction(f) for f in finals]))
                 if approach != "ground-truth":
-                    row["ms"] = self.cost_ms(distance, approach)
+                    row["ms"] = costs[approach]
                 per_approach[approach] = row
             self.material.glint_filter = "ours"
             if distance in TARGET_DISTANCES:
-                for approach, value in self.flicker(distance, truth_energy).items():
+                for approach, value in self.flicker(distance).items():
                     per_approach[approach]["flicker"] = value
             for approach in APPROACHES:
                 row, truth = per_approach[approach], per_approach["ground-truth"]
@@ -184,26 +185,40 @@ class Bench:
             print(f"  sparkle at {distance} m", file=sys.stderr, flush=True)
         return results
 
-    def cost_ms(self, distance: float, approach: str) -> float:
-        """Median ms of the close-range shading of the whole probe frame."""
-        self.material.glint_filter = approach
+    def costs_ms(self, distance: float) -> dict:
+        """Median ms of each approach's close-range shading of the whole probe frame, the
+        approaches taken in turn in every round, so that a load on the machine that comes and
+        goes weighs on all of them alike."""
         camera = self.probe.camera(distance)
-        self.probe.render(camera, "close")  # warm-up
-        ms = statistics.median(self.probe.render(camera, "close")[1] for _ in range(self.repeats))
+        times = {approach: [] for approach in APPROACHES}
+        for round_ in range(self.repeats + 1):
+            for approach in APPROACHES:
+                self.material.glint_filter = approach
+                ms = self.probe.render(camera, "close")[1]
+                if round_ > 0:  # the first round warms up
+                    times[approach].append(ms)
         self.material.glint_filter = "ours"
-        return ms
+        return {approach: statistics.median(t) for approach, t in times.items()}
 
-    def flicker(self, distance: float, truth_energy: float, frames: int = 4) -> dict:
-        """Mean frame-to-frame change of glint luminance under sub-pixel camera motion, over the
-        ground truth's mean glint: sparkles that stay on the surface change only where they
-        cross pixel edges, as the facets of the ground truth do."""
+    def flicker(self, distance: float, frames: int = 4, views: int = 2) -> dict:
+        """Mean frame-to-frame change of a pixel's glint luminance under sub-pixel camera
+        motion, over the approach's own mean glint (views pooled): sparkles that stay on the
+        surface change only where they cross pixel edges, as the facets of the ground truth
+        do; an approach with no glint left has none to change (0)."""
         shifts = [(0.37 * t, 0.23 * t) for t in range(frames)]
         result = {}
         for approach in ("ground-truth", *APPROACHES):
-            frames_ = np.stack(
-                [luminance(self.shade(distance, "glints", approach, shift=s)[0]) for s in shifts]
+            change, level = [], []
+            for view in range(views):
+                sequence = np.stack(
+                    [luminance(self.shade(distance, "glints", approach, view, s)[0])
+                     for s in shifts]
+                )  # fmt: skip
+                change.append(np.abs(np.diff(sequence, axis=0)).mean())
+                level.append(sequence.mean())
+            result[approach] = (
+                float(np.mean(change) / np.mean(level)) if np.mean(level) > 0 else 0.0
             )
-            result[approach] = float(np.abs(np.diff(frames_, axis=0)).mean() / truth_energy)
         return result
 
     def look(self) -> dict:
