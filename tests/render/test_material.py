@@ -15,14 +15,18 @@ pytestmark = pytest.mark.gl
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
-@pytest.fixture(scope="module")
-def probe(gl_ctx):
-    material = SandMaterial(gl_ctx, 256)
+def _probe(ctx, texture_size: int):
+    material = SandMaterial(ctx, texture_size)
     material.update(Preset())
     probe = MaterialProbe(material, 96, 72)
     yield probe
     probe.release()
     material.release()
+
+
+@pytest.fixture(scope="module")
+def probe(gl_ctx):
+    yield from _probe(gl_ctx, 256)
 
 
 @pytest.fixture(autouse=True)
@@ -237,12 +241,7 @@ def test_the_two_eyes_of_a_stereo_pair_see_different_sparkles(probe):
 def fine_probe(gl_ctx):
     # Grain textures fine enough that a 200 µm facet is under a texel: the ground truth's facets
     # then see the grains as the renderer does.
-    material = SandMaterial(gl_ctx, 512)
-    material.update(Preset())
-    probe = MaterialProbe(material, 96, 72)
-    yield probe
-    probe.release()
-    material.release()
+    yield from _probe(gl_ctx, 512)
 
 
 def _lower_half_glints(probe, glint_filter, distance, views=4):
