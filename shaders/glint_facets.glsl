@@ -17,7 +17,7 @@
 // patches and their counts where they are; another half vector (the other eye) falls into
 // another bin and draws other facets, as in life.
 
-const float FACET_SIZE_M = 200.0e-6;       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)       // edge of one facet of a grain (metres)
+const float FACET_SIZE_M = 200.0e-6;       // edge of one facet of a grain (metres)
 const float LIGHT_ANGULAR_RADIUS = 0.00465; // the sun's (and the moon's) real angular radius
 
 // Half vectors spanned by a light disc of angular radius r around the mirror direction have
@@ -102,7 +102,8 @@ Patches footprint_patches(vec2 tc, vec2 dx, vec2 dy, float texture_size, float f
     float fine = ceil(level);
     p.texel = fract(tc) * texture_size;
     ivec2 coarse_cell = ivec2(p.texel / exp2(fine + 1.0));
-    bool take_coarse = hash01(hash_cell(coarse_cell, uint(fine + 1.0) * 4u + 1u)) < level - floor(level);
+    uint coarse_key = hash_cell(coarse_cell, uint(fine + 1.0) * 4u + 1u);
+    bool take_coarse = hash01(coarse_key) < level - floor(level);
     p.level = take_coarse ? fine + 1.0 : fine;
     p.size = exp2(p.level);
     p.per_tile = max(floor(texture_size / p.size + 0.5), 1.0);

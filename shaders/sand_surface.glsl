@@ -68,8 +68,8 @@ uniform float u_close_limit;
 
 const float REFERENCE_GLINT_GAIN = 5000.0;  // the reference's glint radiance scale
 const float REFERENCE_BOOST = 5.0;   // and its distance boost e^(5m), m the mip level / the top
-// Our glint brightness: the reference's at its boost level m = 0.4 (where it shows sand about a
-// metre away), the same at every distance, since the drawn sparkle loses no energy to make up.
+// Our glint brightness: the reference's at its boost level m = 0.4 (where it shows sand about
+// 0.4 m away at 480×270), the same at every distance: the drawn sparkle loses no energy.
 const float GLINT_GAIN = REFERENCE_GLINT_GAIN * 7.38905609893;  // e^(5·0.4)
 const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
@@ -278,8 +278,8 @@ vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
             SlopeMoments m = slope_moments(glint_moments, textureLod(u_spread_moments, tc, lod),
                                            textureLod(u_hole_moments, tc, lod).x);
             HalfVector p0, p1;
-            half_vectors_at(f, (vec2(cell) + 0.5) * p.size / u_texture_size - p.texel / u_texture_size,
-                            p0, p1);
+            vec2 offset = ((vec2(cell) + 0.5) * p.size - p.texel) / u_texture_size;
+            half_vectors_at(f, offset, p0, p1);
             if (p0.valid) {
                 float chance = mirror_chance(expected_glint(m, p0.slope, p0.variance), p0);
                 count.x += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), p0.slope, 0u);
@@ -309,7 +309,8 @@ vec2 stratum_offset(int i, int j, int k) {
 const int GROUND_TRUTH_FACETS = 128;
 
 // Whether a facet mirrors each light: with the chance its grain's expected glint gives it (at
-// its centre, on the finest level), drawn anew in every half-vector bin; without `draw`, the chance.
+// its centre, on the finest level), drawn anew in every half-vector bin; without `draw`, the
+// chance.
 vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
     // The finest level as the renderer shows it up close: texels interpolated.
     vec2 tc = (vec2(facet) + 0.5) / per_tile;
@@ -328,7 +329,8 @@ vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
     }
     if (h1.valid) {
         float chance = min(mirror_chance(w * glint_lobe(b, h1.slope, h1.variance), h1), 1.0);
-        float u = open01(hash_cell(half_vector_bin(h1.slope, offset), lowbias32(key ^ 0x9e3779b9u)));
+        uint moon_key = lowbias32(key ^ 0x9e3779b9u);
+        float u = open01(hash_cell(half_vector_bin(h1.slope, offset), moon_key));
         mirrors.y = draw ? (u < chance ? 1.0 : 0.0) : chance;
     }
     return mirrors;
@@ -377,7 +379,8 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
 #if defined SAND_PROBE
     vec2 glint = vec2(0.0);
     if (u_glint_filter == FILTER_OURS) {
-        glint = sparkle ? sparkling_factors(f, h0, h1, true) : expected_factors(f, h0, h1, reference_footprint());
+        glint = sparkle ? sparkling_factors(f, h0, h1, true)
+                        : expected_factors(f, h0, h1, reference_footprint());
     } else if (u_glint_filter == FILTER_OURS_MEAN) {
         glint = sparkling_factors(f, h0, h1, false);
     } else if (u_glint_filter == FILTER_EXPECTED) {
@@ -409,7 +412,8 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
     }
     return glint;
 #else
-    return sparkle ? sparkling_factors(f, h0, h1, true) : expected_factors(f, h0, h1, reference_footprint());
+    return sparkle ? sparkling_factors(f, h0, h1, true)
+                   : expected_factors(f, h0, h1, reference_footprint());
 #endif
 }
 
