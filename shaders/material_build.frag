@@ -1,4 +1,5 @@
 #version 330 core
+#include "common.glsl"
 // Builds level 0 of the sand material's filterable textures from the generated grains. Every
 // quantity written here is linear in what the renderer averages, so the GPU's mipmaps (box
 // averages) stay exact footprint averages at every level:
@@ -25,11 +26,6 @@ layout(location = 3) out float out_hole;
 
 const float HOLE_SCALE2 = 0.25;   // s₀², as in sand_surface.glsl
 
-uint lowbias32(uint x) {
-    x ^= x >> 16u; x *= 0x7feb352du;
-    x ^= x >> 15u; x *= 0x846ca68bu;
-    return x ^ (x >> 16u);
-}
 
 void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);

@@ -1,4 +1,5 @@
 #version 330 core
+#include "common.glsl"
 // Post-processing of the HDR scene, one program per define: BLOOM_DOWNSAMPLE (13 taps),
 // BLOOM_UPSAMPLE (3×3 tent, added onto the next larger level), and RESOLVE (bloom mix, exposure,
 // ACES tone mapping and sRGB encoding into the caller's framebuffer, or raw values for debug
@@ -75,11 +76,6 @@ vec3 aces_fitted(vec3 colour) {
     return clamp(ACES_OUTPUT * (a / b), 0.0, 1.0);
 }
 
-vec3 srgb_encode(vec3 linear) {
-    vec3 low = linear * 12.92;
-    vec3 high = 1.055 * pow(linear, vec3(1.0 / 2.4)) - 0.055;
-    return mix(high, low, lessThanEqual(linear, vec3(0.0031308)));
-}
 
 void main() {
     vec2 uv = output_uv();

@@ -1,4 +1,5 @@
 #version 330 core
+#include "common.glsl"
 // Layered, thresholded, tileable 2D Worley grains: the GLSL twin of
 // sand_editor/generator/reference.py (see noise.py for the model). Every constant and every step
 // here mirrors that file; change both together. PROFILE_OFFSET, PROFILE_SCALE and ANCHOR_DEPTH
@@ -20,11 +21,6 @@ layout(location = 1) out uvec2 out_layer_grain; // layer + 1 (0 in gaps), grain 
 const vec2 ANCHOR0 = vec2(0.25);
 const vec2 ANCHOR1 = vec2(0.75);
 
-uint lowbias32(uint x) {
-    x ^= x >> 16u; x *= 0x7feb352du;
-    x ^= x >> 15u; x *= 0x846ca68bu;
-    return x ^ (x >> 16u);
-}
 
 // One feature point of neighbour cell o of the pixel's cell: its offset to the pixel p − f (in
 // cells), its squared 3D distance, and its word. Point k of a cell sits around anchor k.

@@ -4,11 +4,14 @@
 // colour on the rippled macro normal; between them the preset's sigmoid of distance. Uniforms are
 // set by sand_editor/render/material.py (SandMaterial.bind).
 //
-// Glints are filtered by moments (LEAN mapping, Olano & Baker 2010): the material's mipmaps hold
-// the w-weighted mean and covariance of grain-normal slopes, w being each grain's glint selection
-// weight, so the expected glint of a whole footprint is one closed-form Gaussian integral per
-// light instead of many taps. The footprint is the one the reference's N×N multisampling covers
-// (sample_count × sample_spread pixels), fetched once with anisotropic trilinear filtering.
+// Glints: their expected value comes from moments (LEAN mapping, Olano & Baker 2010): the
+// material's mipmaps hold the w-weighted mean and covariance of grain-normal slopes, w being each
+// grain's glint selection weight, so the expected glint of a whole footprint is one closed-form
+// Gaussian integral per light instead of many taps. From it each pixel draws its sparkle: the
+// grain facets that mirror the sun in its footprint (glint_facets.glsl).
+
+#include "common.glsl"
+#include "glint_facets.glsl"
 
 struct SurfacePoint {
     vec3 position;   // world (metres)
@@ -44,10 +47,17 @@ uniform float u_ripple_strength;
 uniform float u_detail_strength;
 uniform float u_sigmoid_a;
 uniform float u_sigmoid_b;
-// 0: ours (footprint moments); 1: the reference's N×N multisampling of mipmapped normals;
-// 2: none (one tap of the finest level); 3: ground truth (K×K taps of the finest level).
+// Glints are drawn sparkles (glint_facets.glsl), except in MODE_REFERENCE_LOOK: the reference's
+// look, its gain and distance boost on the expected glint.
+#if defined SAND_PROBE
+// Benchmark-only filters (sand_editor/render/probe.py compiles this variant): 0 ours (sparkles
+// drawn from the footprint's moments); 1 the expected value of those moments alone; 2 the
+// reference's N×N multisampling of mipmapped normals; 3 none (one tap of the finest level);
+// 4 ground truth (every facet in the pixel, explicitly); 5 and 6: the expectations of 0 and 4
+// over their draws (no sparkle), which measure energy free of the draws' noise.
 uniform int u_glint_filter;
-uniform int u_ground_truth_samples;
+uniform int u_ground_truth_samples;  // K: K×K jittered samples of albedo and slope
+#endif
 // Close-range work is skipped where the blend weight exceeds this (its share is below 1 − it),
 // which happens beyond u_close_limit metres. Surfaces are drawn twice in full mode: once with
 // this file as is, discarding beyond the limit, and once compiled with SAND_FAR_ONLY, discarding
@@ -56,17 +66,23 @@ uniform int u_ground_truth_samples;
 uniform float u_close_cutoff;
 uniform float u_close_limit;
 
-const float PI = 3.14159265358979;
-const float GLINT_GAIN = 5000.0;     // the reference's glint radiance scale
+const float REFERENCE_GLINT_GAIN = 5000.0;  // the reference's glint radiance scale
+const float REFERENCE_BOOST = 5.0;   // and its distance boost e^(5m), m the mip level / the top
+// Our glint brightness: the reference's at its boost level m = 0.4 (where it shows sand about
+// 0.4 m away at 480×270), the same at every distance: the drawn sparkle loses no energy.
+const float GLINT_GAIN = REFERENCE_GLINT_GAIN * 7.38905609893;  // e^(5·0.4)
 const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
 const float MIN_FACING = 0.05;       // least n·v of a shading normal
 const float HOLE_SCALE2 = 0.25;      // s₀², width² of the slope hole probe (material_build.frag)
 
 #define FILTER_OURS 0
-#define FILTER_REFERENCE 1
-#define FILTER_NONE 2
-#define FILTER_GROUND_TRUTH 3
+#define FILTER_EXPECTED 1
+#define FILTER_REFERENCE 2
+#define FILTER_NONE 3
+#define FILTER_GROUND_TRUTH 4
+#define FILTER_OURS_MEAN 5
+#define FILTER_GROUND_TRUTH_MEAN 6
 
 float blend_weight(float distance_m) {
     // Clamped so exp() never overflows at 1 km with a steep sigmoid.
@@ -170,20 +186,15 @@ float glint_fresnel(float v_dot_h) {
     return mix(schlick / SILICA_F0, 1.0, u_fresnel_roughness);
 }
 
-// A random point in stratum (i, j) of a k×k grid over the pixel, centred on it. Regular taps
-// would alias against the texture's tiling far away; jittered ones keep the estimate unbiased.
-vec2 stratum_offset(int i, int j, int k) {
-    uvec2 p = uvec2(gl_FragCoord.xy);
-    uint h = (p.x * 1973u + p.y * 9277u + uint(i) * 26699u + uint(j) * 7919u) | 1u;
-    h ^= h >> 16u; h *= 0x7feb352du; h ^= h >> 15u; h *= 0x846ca68bu; h ^= h >> 16u;
-    vec2 r = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
-    return (vec2(float(i), float(j)) + r) / float(k) - 0.5;
-}
-
 struct Footprint {
-    vec2 tc;     // texture coordinates (tiles)
-    vec2 dx;     // screen derivatives of tc
+    vec2 tc;       // texture coordinates (tiles)
+    vec2 dx;       // screen derivatives of tc
     vec2 dy;
+    // In tangent space: from the pixel's point to the eye (metres), and towards each light
+    // (lit: the light is on and above the surface).
+    vec3 to_eye;
+    vec3 light0, light1;
+    bool lit0, lit1;
 };
 
 // One light's half vector, as the glint lobe needs it.
@@ -191,7 +202,8 @@ struct HalfVector {
     bool valid;      // the light and the eye are above the surface and some grain can mirror
     vec2 slope;      // of the half vector, in tangent space
     float variance;  // of the lobe about it, in slope space
-    float fresnel;
+    float fresnel;   // normalised to 1 at normal incidence
+    float cos_light; // of the light to the macro normal
 };
 
 HalfVector half_vector(vec3 l_t, vec3 v_t) {
@@ -200,7 +212,21 @@ HalfVector half_vector(vec3 l_t, vec3 v_t) {
     h.valid = l_t.z > 0.0 && v_t.z > 0.0 && half_slope(l_t, v_t, h.slope, v_dot_h);
     h.variance = lobe_variance(h.valid ? h.slope : vec2(0.0));
     h.fresnel = glint_fresnel(v_dot_h);
+    h.cos_light = max(l_t.z, 0.0);
     return h;
+}
+
+// The half vectors of both lights at a point `offset` tiles along the surface from the pixel's
+// centre: each facet sees the eye from where it lies, so its mirror state belongs to it, not to
+// the pixel that happens to cover it.
+void half_vectors_at(Footprint f, vec2 offset, out HalfVector h0, out HalfVector h1) {
+    vec3 to_eye = f.to_eye - vec3(offset / u_uv_scale, 0.0);
+    float distance_m = length(to_eye);
+    vec3 v = distance_m > 0.0 ? to_eye / distance_m : vec3(0.0, 0.0, 1.0);
+    h0 = half_vector(f.light0, v);
+    h1 = half_vector(f.light1, v);
+    h0.valid = h0.valid && f.lit0;
+    h1.valid = h1.valid && f.lit1;
 }
 
 vec2 lobes(HalfVector h0, HalfVector h1, vec2 b) {
@@ -208,20 +234,157 @@ vec2 lobes(HalfVector h0, HalfVector h1, vec2 b) {
                 h1.valid ? glint_lobe(b, h1.slope, h1.variance) : 0.0);
 }
 
-// The expected glint factors (before light, gain and cosine) of two lights over the footprint.
-// Every filter fetches its taps once for both lights: they do not depend on the light.
-vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1) {
+// The footprint of the reference's N×N kernel: the preset's sample count × spread pixels.
+float reference_footprint() {
+    return max(1.0, float(u_sample_count) * u_sample_spread);
+}
+
+// The expected glint E[w·lobe] of two lights over the footprint widened by `widen` pixels, from
+// one trilinear fetch per moment texture.
+vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1, float widen) {
+    vec2 gx = f.dx * widen, gy = f.dy * widen;
+    SlopeMoments m = slope_moments(textureGrad(u_glint_moments, f.tc, gx, gy),
+                                   textureGrad(u_spread_moments, f.tc, gx, gy),
+                                   textureGrad(u_hole_moments, f.tc, gx, gy).x);
+    return vec2(h0.valid ? expected_glint(m, h0.slope, h0.variance) : 0.0,
+                h1.valid ? expected_glint(m, h1.slope, h1.variance) : 0.0);
+}
+
+// The chance that one facet mirrors a light, from an expected glint E[w·lobe]: the expected
+// radiance over a mirroring facet's, R = F·E/Ω (glint_facets.glsl); E and F cancel.
+float mirror_chance(float expected, HalfVector h) {
+    return GLINT_GAIN * expected * h.cos_light * LIGHT_SOLID_ANGLE / SILICA_F0;
+}
+
+// The glints with each light's sparkle drawn (glint_facets.glsl): the mirroring facets of
+// the patches under the footprint, each patch's chance from its own mip texel's moments, so
+// that the draw belongs to the surface alone; returned in the units of E[w·lobe]. Without
+// `draw`, the expectation alone: the pixel's footprint's expected glint.
+vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
+    if (!draw) return expected_factors(f, h0, h1, 1.0);
+    float facet_texels = FACET_SIZE_M * u_uv_scale * u_texture_size;
+    Patches p = footprint_patches(f.tc, f.dx, f.dy, u_texture_size, facet_texels);
+    vec2 per_facet = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1)) * p.pixel_facets;
+    if (!p.valid || !(max(per_facet.x, per_facet.y) > 0.0)) return vec2(0.0);
+    float lod = min(p.level, u_max_lod);
+    vec2 count = vec2(0.0);
+    for (int j = 0; j < 2; ++j) {
+        for (int i = 0; i < 2; ++i) {
+            ivec2 cell = p.first + ivec2(i, j);
+            if (!patch_overlaps(p, cell)) continue;
+            vec2 tc = patch_centre(p, cell, u_texture_size);
+            vec4 glint_moments = textureLod(u_glint_moments, tc, lod);
+            if (glint_moments.x < 1e-6) continue;  // no selected grain: expected_glint is 0
+            SlopeMoments m = slope_moments(glint_moments, textureLod(u_spread_moments, tc, lod),
+                                           textureLod(u_hole_moments, tc, lod).x);
+            HalfVector p0, p1;
+            vec2 offset = ((vec2(cell) + 0.5) * p.size - p.texel) / u_texture_size;
+            half_vectors_at(f, offset, p0, p1);
+            if (p0.valid) {
+                float chance = mirror_chance(expected_glint(m, p0.slope, p0.variance), p0);
+                count.x += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), p0.slope, 0u);
+            }
+            if (p1.valid) {
+                float chance = mirror_chance(expected_glint(m, p1.slope, p1.variance), p1);
+                count.y += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), p1.slope, 1u);
+            }
+        }
+    }
+    return vec2(per_facet.x > 0.0 ? count.x / per_facet.x : 0.0,
+                per_facet.y > 0.0 ? count.y / per_facet.y : 0.0);
+}
+
+#if defined SAND_PROBE
+// A random point in stratum (i, j) of a k×k grid over the pixel, centred on it. Regular taps
+// would alias against the texture's tiling far away; jittered ones keep the estimate unbiased.
+vec2 stratum_offset(int i, int j, int k) {
+    uint h = lowbias32(uint(gl_FragCoord.x) * 1973u + uint(gl_FragCoord.y) * 9277u
+                       + uint(i) * 26699u + uint(j) * 7919u);
+    vec2 r = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
+    return (vec2(float(i), float(j)) + r) / float(k) - 0.5;
+}
+
+// Facets per axis the ground truth visits at most in one pixel; past that it visits every
+// n-th row and column (only far views, where a pixel holds tens of thousands of facets).
+const int GROUND_TRUTH_FACETS = 128;
+
+// Whether a facet mirrors each light: with the chance its grain's expected glint gives it (at
+// its centre, on the finest level), drawn anew in every half-vector bin; without `draw`, the
+// chance.
+vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
+    // The finest level as the renderer shows it up close: texels interpolated.
+    vec2 tc = (vec2(facet) + 0.5) / per_tile;
+    float w = textureLod(u_glint_moments, tc, 0.0).x;
+    if (w < 1e-6) return vec2(0.0);
+    vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
+    HalfVector h0, h1;
+    half_vectors_at(f, tc - f.tc, h0, h1);
+    uint key = hash_cell(ivec2(mod(vec2(facet), per_tile)), 0x5eedu);
+    vec2 offset = vec2(open01(key), open01(lowbias32(key)));
+    vec2 mirrors = vec2(0.0);
+    if (h0.valid) {
+        float chance = min(mirror_chance(w * glint_lobe(b, h0.slope, h0.variance), h0), 1.0);
+        float u = open01(hash_cell(half_vector_bin(h0.slope, offset), key));
+        mirrors.x = draw ? (u < chance ? 1.0 : 0.0) : chance;
+    }
+    if (h1.valid) {
+        float chance = min(mirror_chance(w * glint_lobe(b, h1.slope, h1.variance), h1), 1.0);
+        uint moon_key = lowbias32(key ^ 0x9e3779b9u);
+        float u = open01(hash_cell(half_vector_bin(h1.slope, offset), moon_key));
+        mirrors.y = draw ? (u < chance ? 1.0 : 0.0) : chance;
+    }
+    return mirrors;
+}
+
+// Ground truth: every facet whose centre lies in the pixel's footprint (a parallelogram in
+// texture space), each mirroring or not as drawn by facet_mirrors; returned in the units of
+// E[w·lobe] (mirroring share over the chance per unit of expected glint), so that it compares
+// with the other filters one to one.
+vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
+    float per_tile = max(floor(1.0 / (FACET_SIZE_M * u_uv_scale) + 0.5), 1.0);
+    vec2 centre = f.tc * per_tile;
+    vec2 dx = f.dx * per_tile, dy = f.dy * per_tile;
+    vec2 extent = 0.5 * (abs(dx) + abs(dy));
+    ivec2 lo = ivec2(floor(centre - extent)), hi = ivec2(floor(centre + extent));
+    int span = max(hi.x - lo.x, hi.y - lo.y) + 1;
+    int stride = max(1, (span + GROUND_TRUTH_FACETS - 1) / GROUND_TRUTH_FACETS);
+    float det = dx.x * dy.y - dx.y * dy.x;
+    if (abs(det) < 1e-12) return vec2(0.0);
+    mat2 to_pixel = inverse(mat2(dx, dy));
+    vec2 mirrored = vec2(0.0);
+    float inside = 0.0;
+    for (int y = lo.y; y <= hi.y; y += stride) {
+        for (int x = lo.x; x <= hi.x; x += stride) {
+            ivec2 facet = ivec2(x, y);
+            vec2 ab = to_pixel * (vec2(facet) + 0.5 - centre);
+            if (abs(ab.x) > 0.5 || abs(ab.y) > 0.5) continue;
+            inside += 1.0;
+            mirrored += facet_mirrors(facet, per_tile, f, draw);
+        }
+    }
+    if (inside < 1.0) {
+        // A footprint smaller than a facet: the facet under the pixel's centre.
+        mirrored = facet_mirrors(ivec2(floor(centre)), per_tile, f, draw);
+        inside = 1.0;
+    }
+    vec2 per_unit = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1));
+    return vec2(per_unit.x > 0.0 ? mirrored.x / (inside * per_unit.x) : 0.0,
+                per_unit.y > 0.0 ? mirrored.y / (inside * per_unit.y) : 0.0);
+}
+#endif
+
+// The glint E[w·lobe] of two lights over the pixel, by the filter in use (production: ours).
+vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
     if (!h0.valid && !h1.valid) return vec2(0.0);
+#if defined SAND_PROBE
     vec2 glint = vec2(0.0);
     if (u_glint_filter == FILTER_OURS) {
-        // The footprint of the reference's N×N kernel, in one trilinear fetch.
-        float widen = max(1.0, float(u_sample_count) * u_sample_spread);
-        vec2 gx = f.dx * widen, gy = f.dy * widen;
-        SlopeMoments m = slope_moments(textureGrad(u_glint_moments, f.tc, gx, gy),
-                                       textureGrad(u_spread_moments, f.tc, gx, gy),
-                                       textureGrad(u_hole_moments, f.tc, gx, gy).x);
-        glint = vec2(h0.valid ? expected_glint(m, h0.slope, h0.variance) : 0.0,
-                     h1.valid ? expected_glint(m, h1.slope, h1.variance) : 0.0);
+        glint = sparkle ? sparkling_factors(f, h0, h1, true)
+                        : expected_factors(f, h0, h1, reference_footprint());
+    } else if (u_glint_filter == FILTER_OURS_MEAN) {
+        glint = sparkling_factors(f, h0, h1, false);
+    } else if (u_glint_filter == FILTER_EXPECTED) {
+        glint = expected_factors(f, h0, h1, reference_footprint());
     } else if (u_glint_filter == FILTER_REFERENCE) {
         // N×N taps spaced by spread × the pixel's derivatives, Gaussian-weighted; each tap
         // evaluates the lobe at the mip-averaged normal and the selection at the averaged g.
@@ -245,24 +408,18 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1) {
         float w = textureLod(u_glint_moments, f.tc, 0.0).x;
         glint = w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, textureLod(u_spread_moments, f.tc, 0.0).zw);
     } else {
-        // Ground truth: K×K jittered stratified taps of the finest level across the pixel.
-        int k = max(u_ground_truth_samples, 1);
-        for (int j = 0; j < k; ++j) {
-            for (int i = 0; i < k; ++i) {
-                vec2 o = stratum_offset(i, j, k);
-                vec2 tc = f.tc + o.x * f.dx + o.y * f.dy;
-                float w = textureLod(u_glint_moments, tc, 0.0).x;
-                vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
-                glint += w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, b);
-            }
-        }
-        glint /= float(k * k);
+        glint = ground_truth_factors(f, h0, h1, u_glint_filter == FILTER_GROUND_TRUTH);
     }
-    return glint * vec2(h0.fresnel, h1.fresnel);
+    return glint;
+#else
+    return sparkle ? sparkling_factors(f, h0, h1, true)
+                   : expected_factors(f, h0, h1, reference_footprint());
+#endif
 }
 
 // Albedo and mean slope of the footprint (the ground truth averages its finest-level taps).
 void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
+#if defined SAND_PROBE
     if (u_glint_filter == FILTER_GROUND_TRUTH) {
         int k = max(u_ground_truth_samples, 1);
         albedo = vec3(0.0);
@@ -277,13 +434,16 @@ void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
         }
         albedo /= float(k * k);
         slope /= float(k * k);
-    } else if (u_glint_filter == FILTER_NONE) {
+        return;
+    }
+    if (u_glint_filter == FILTER_NONE) {
         albedo = textureLod(u_albedo, f.tc, 0.0).rgb;
         slope = textureLod(u_spread_moments, f.tc, 0.0).zw;
-    } else {
-        albedo = textureGrad(u_albedo, f.tc, f.dx, f.dy).rgb;
-        slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
+        return;
     }
+#endif
+    albedo = textureGrad(u_albedo, f.tc, f.dx, f.dy).rgb;
+    slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
 }
 
 // Subsurface-flavoured diffuse of the reference: a share fs of the light wraps around the grain
@@ -308,7 +468,8 @@ struct CloseTerms {
     float lod;
 };
 
-CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v) {
+// reference_look: the reference's glint instead (its gain and distance boost, no sparkle).
+CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     Footprint f;
     f.tc = s.uv * u_uv_scale;
     f.dx = dFdx(f.tc);
@@ -321,16 +482,26 @@ CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v) {
     vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
     c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
 
-    vec3 v_t = to_tangent(v, s);
     c.radiance = vec3(0.0);
     c.glint = vec3(0.0);
     vec3 lights[2] = vec3[2](L.sun_direction, L.moon_direction);
     vec3 irradiances[2] = vec3[2](L.sun_radiance, L.moon_radiance);
     vec3 l_t[2] = vec3[2](to_tangent(lights[0], s), to_tangent(lights[1], s));
-    vec2 glints = glint_factors(f, half_vector(l_t[0], v_t), half_vector(l_t[1], v_t));
+    f.to_eye = to_tangent(L.eye - s.position, s);
+    f.light0 = l_t[0];
+    f.light1 = l_t[1];
+    // A light that is off (below the horizon) draws no sparkle: it would only cost time.
+    f.lit0 = dot(irradiances[0], irradiances[0]) > 0.0;
+    f.lit1 = dot(irradiances[1], irradiances[1]) > 0.0;
+    HalfVector h[2];
+    half_vectors_at(f, vec2(0.0), h[0], h[1]);
+    vec2 glints = glint_factors(f, h[0], h[1], !reference_look);
+    float gain = reference_look
+        ? REFERENCE_GLINT_GAIN * exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0))
+        : GLINT_GAIN;
     for (int i = 0; i < 2; ++i) {
         vec3 e = irradiances[i];
-        c.glint += e * (GLINT_GAIN * glints[i] * max(l_t[i].z, 0.0));
+        c.glint += e * (gain * glints[i] * h[i].fresnel * max(l_t[i].z, 0.0));
         c.radiance += grain_diffuse(albedo, dot(c.micro_normal, lights[i]), e, vec3(0.0));
         c.radiance += grain_transmission(albedo, lights[i], v, e);
     }
@@ -417,10 +588,11 @@ vec3 lod_colour(float t) {
 // Whether this program variant shades the point at all (see u_close_limit).
 bool sand_covers(vec3 position, vec3 eye, int mode) {
     bool beyond = distance(position, eye) > u_close_limit;
+    bool whole = mode == MODE_FULL || mode == MODE_REFERENCE_LOOK;
 #if defined SAND_FAR_ONLY
-    return mode == MODE_FULL && beyond;
+    return whole && beyond;
 #else
-    return mode != MODE_FULL || !beyond;
+    return !whole || !beyond;
 #endif
 }
 
@@ -438,13 +610,16 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
 #if defined SAND_FAR_ONLY
     return shade_far(s, L, v);
 #endif
-    if (mode == MODE_FULL && blend > u_close_cutoff) return shade_far(s, L, v);
-    CloseTerms close = shade_close(s, L, v);
+    if ((mode == MODE_FULL || mode == MODE_REFERENCE_LOOK) && blend > u_close_cutoff) return shade_far(s, L, v);
+    CloseTerms close = shade_close(s, L, v, mode == MODE_REFERENCE_LOOK);
 
     if (mode == MODE_CLOSE) return close.radiance;
     if (mode == MODE_GLINTS) return close.glint;
     if (mode == MODE_NORMALS) return close.micro_normal * 0.5 + 0.5;
     if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
     vec3 far = blend > 1e-4 ? shade_far(s, L, v) : vec3(0.0);
-    return mix(close.radiance, far, blend);
+    // Glints are specular light that the far BRDF (diffuse spheres) does not hold: they are
+    // added to the blend rather than blended away, and fade out before the close range ends.
+    float glint_fade = 1.0 - smoothstep(0.5 * u_close_limit, u_close_limit, distance_m);
+    return mix(close.radiance - close.glint, far, blend) + close.glint * glint_fade;
 }

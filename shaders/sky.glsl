@@ -1,4 +1,5 @@
 #version 330 core
+#include "common.glsl"
 // The sky dome behind everything: zenith-to-horizon gradient, sun and moon discs, stars and a
 // ground colour below the horizon. Drawn first, at the far plane, into the HDR scene target.
 
@@ -28,16 +29,8 @@ void main() {
 
 out vec4 out_radiance;
 
-const float PI = 3.14159265358979;
-const float MAX_HALF = 60000.0;
 
-uint lowbias32(uint x) {
-    x ^= x >> 16u; x *= 0x7feb352du;
-    x ^= x >> 15u; x *= 0x846ca68bu;
-    return x ^ (x >> 16u);
-}
 
-float hash01(uint x) { return float(lowbias32(x) >> 8u) / 16777216.0; }
 
 // A disc of angular radius r around direction c with a soft edge one pixel-ish wide, and its
 // radiance chosen so the disc delivers the given irradiance.

@@ -1,13 +1,20 @@
-"""``sand-editor bench render``: the material's speed against error, flicker and frame cost.
+"""``sand-editor bench render``: the glints against a ground truth, their sparkle in the final
+image, flicker, and frame cost.
 
-Everything is measured on the material probe (the material on a flat plane, one sun, HDR
-values, no terrain or post-processing in the way), except the stereo frame, which is the whole
-renderer. The ground truth is the close-range shading evaluated at the finest texture level with
-K×K jittered samples per pixel.
+The material is measured on the probe (the material on a flat plane under one sun, HDR values,
+no terrain in the way), over the lower half of the frame: the sand nearest the camera, whose
+pixels see the distance asked for. The ground truth visits every grain facet in each pixel and
+draws whether it mirrors the sun (shaders/sand_surface.glsl); nothing in it is sampled, so it
+has no sampling noise to converge away, and its expectation over the draws is computed too
+(``ground-truth-mean``), for energies free of the draws' noise. The sparkle share is measured
+on the tone-mapped image (bloom, exposure, ACES, sRGB), and on whole frames of ``sand-editor
+render`` at 480×270 for the look; the stereo frame is the whole renderer.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import statistics
 import sys
 import time
@@ -16,21 +23,65 @@ import numpy as np
 
 from sand_editor.bench._report import report
 from sand_editor.bench.generator import machine_description
-from sand_editor.gl import standalone_context
+from sand_editor.gl import drawing_into, standalone_context
 from sand_editor.preset import Preset
 from sand_editor.render.material import CLOSE_CUTOFF, SandMaterial
+from sand_editor.render.post import PostChain
 from sand_editor.render.probe import MaterialProbe
 from sand_editor.resources import bundled_preset
 
 DISTANCES = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
-SAMPLE_COUNTS = (1, 3, 5, 7, 9)
-APPROACHES = ("ours", "reference")
+TARGET_DISTANCES = (0.3, 1.0, 3.0)  # where per-pixel statistics must track the ground truth
+APPROACHES = ("ours", "expected", "reference", "none")
+# The expectation each approach's energy is measured by: ours by its mean over its draws.
+ENERGY_FILTER = {"ours": "ours-mean", "expected": "expected", "reference": "reference",
+                 "none": "none", "ground-truth": "ground-truth-mean"}  # fmt: skip
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 STEREO_EYE = (1832, 1920)
+SPARKLE_RATIO = 2.0  # a sparkle: at least twice the median luminance around it
+SPARKLE_WINDOW = 9  # pixels across the neighbourhood whose median that is
+LOOK_SIZE = (480, 270)
+LOOK_TIMES = ("12:00", "16:30")
+LOOK_DISTANCES = (0.3, 1.0, 30.0)
 
 
 def luminance(image: np.ndarray) -> np.ndarray:
     return image @ LUMINANCE
+
+
+def srgb_decode(encoded: np.ndarray) -> np.ndarray:
+    c = encoded.astype(np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def sparkle_mask(image: np.ndarray) -> np.ndarray:
+    """Pixels of an sRGB uint8 image at least SPARKLE_RATIO × the median luminance of the
+    SPARKLE_WINDOW² pixels around them (luminance of the displayed, decoded values)."""
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    lum = luminance(srgb_decode(image[..., :3]))
+    r = SPARKLE_WINDOW // 2
+    padded = np.pad(lum, r, mode="reflect")
+    median = np.median(sliding_window_view(padded, (SPARKLE_WINDOW, SPARKLE_WINDOW)), axis=(-2, -1))
+    return (lum >= SPARKLE_RATIO * median) & (lum > 0)
+
+
+def sparkle_fraction(image: np.ndarray) -> float:
+    """Share of an sRGB uint8 image's pixels that are sparkles (see sparkle_mask)."""
+    return float(sparkle_mask(image).mean())
+
+
+def pixel_statistics(glint: np.ndarray) -> dict:
+    """Per-pixel statistics of glint luminance, over its mean."""
+    mean = float(glint.mean())
+    if not mean > 0:
+        return {"mean": mean, "cv": 0.0, "p99_over_mean": 0.0, "p999_over_mean": 0.0}
+    return {
+        "mean": mean,
+        "cv": float(glint.std() / mean),
+        "p99_over_mean": float(np.percentile(glint, 99) / mean),
+        "p999_over_mean": float(np.percentile(glint, 99.9) / mean),
+    }
 
 
 class Bench:
@@ -42,91 +93,167 @@ class Bench:
         self.material.update(self.preset)
         width, height = (160, 120) if quick else (320, 240)
         self.probe = MaterialProbe(self.material, width, height)
-        self.gt_samples = 8 if quick else 16
-        self.repeats = 2 if quick else 3
+        self.post = PostChain(self.ctx)
+        self.post.resize(width, height)
+        self._ldr = self.ctx.texture((width, height), 4)
+        self._ldr_fbo = self.ctx.framebuffer([self._ldr])
+        self.exposure = self._probe_exposure()
+        self.repeats = 3 if quick else 7
+        # Views of other sand (targets along the plane) pooled into each statistic.
+        self.views = 2 if quick else 4
+        self.ground_truth_samples = 4 if quick else 8  # K×K for the ground truth's albedo
 
-    def shade(self, distance, mode="close", glint_filter="ours", sample_count=None, shift=(0, 0)):
-        """(image, median ms) of the probe at a distance with a filter and sample count."""
-        preset = self.preset
-        if sample_count is not None:
-            preset = preset.replace(**{"shading.sample_count": sample_count})
-        self.material.update(preset)
+    def _probe_exposure(self) -> float:
+        from sand_editor.render.renderer import auto_exposure
+        from sand_editor.render.sky import sky_at
+
+        sky = dataclasses.replace(
+            sky_at(12.0),
+            sun_direction=self.probe.sun_direction / np.linalg.norm(self.probe.sun_direction),
+            sun_radiance=self.probe.sun_radiance,
+            moon_radiance=np.zeros(3),
+            sky_irradiance=self.probe.sky_irradiance,
+        )
+        return auto_exposure(sky)
+
+    def camera(self, distance: float, view: int = 0, shift=(0.0, 0.0)):
+        from sand_editor.render.camera import Camera, camera_at_distance
+
+        probe = self.probe
+        target = (0.37 * view * distance, 0.23 * view * distance)
+        camera = camera_at_distance(distance, 45.0, probe.width / probe.height, target_xz=target)
+        if shift == (0.0, 0.0):
+            return camera
+        moved = probe.camera(distance, shift_px=shift)  # the same sub-pixel shift, any view
+        return Camera(view=camera.view, projection=moved.projection, eye=camera.eye)
+
+    def shade(self, distance, mode, glint_filter, view=0, shift=(0.0, 0.0)):
+        """(lower half of the HDR image, ms) of the probe with a glint filter."""
         self.material.glint_filter = glint_filter
-        self.material.ground_truth_samples = self.gt_samples
-        camera = self.probe.camera(distance, shift_px=shift)
-        times, image = [], None
-        for _ in range(1 if glint_filter == "ground-truth" else self.repeats):
-            image, ms = self.probe.render(camera, mode)
-            times.append(ms)
-        self.material.update(self.preset)
-        return image, statistics.median(times)
+        self.material.ground_truth_samples = self.ground_truth_samples
+        image, ms = self.probe.render(self.camera(distance, view, shift), mode, lower_half=True)
+        self.material.glint_filter = "ours"
+        return image[self.probe.height // 2 :], ms
 
-    def curves(self) -> tuple[dict, dict, dict]:
-        curves, default_error, costs = {}, {}, []
-        default_n = self.preset.shading.sample_count
+    def tone_mapped(self, hdr_lower_half: np.ndarray) -> np.ndarray:
+        """The lower half through the renderer's post chain: bloom, exposure, ACES, sRGB."""
+        height, width = self.probe.height, self.probe.width
+        rgba = np.zeros((height, width, 4), dtype=np.float16)
+        rgba[height // 2 :, :, :3] = hdr_lower_half
+        rgba[..., 3] = 1.0
+        self.post.scene_texture.write(np.ascontiguousarray(rgba[::-1]).tobytes())
+        with drawing_into(self.ctx, self._ldr_fbo):
+            self.post.finish(self._ldr_fbo, (0, 0, width, height), self.exposure)
+        data = np.frombuffer(self._ldr_fbo.read(components=3, alignment=1), dtype=np.uint8)
+        image = data.reshape(height, width, 3)[::-1]
+        # Rows next to the empty upper half see its black in their neighbourhood: left out.
+        return image[height // 2 + SPARKLE_WINDOW :]
+
+    def sparkle(self) -> dict:
+        """Per distance, per approach and the ground truth: energy against the ground truth's,
+        per-pixel statistics, sparkle share of the tone-mapped image, flicker and cost."""
+        results = {}
         for distance in DISTANCES:
-            truth, _ = self.shade(distance, "close", "ground-truth")
-            truth_glint, _ = self.shade(distance, "glints", "ground-truth")
-            truth_lum, truth_energy = luminance(truth), luminance(truth_glint).mean()
-            per_distance = {}
+            stats_views = self.views if distance in TARGET_DISTANCES else 1
+            truth_energy = luminance(self.shade(distance, "glints", "ground-truth-mean")[0]).mean()
+            per_approach = {}
+            costs = self.costs_ms(distance)
+            for approach in ("ground-truth", *APPROACHES):
+                glints = [luminance(self.shade(distance, "glints", approach, v)[0])
+                          for v in range(stats_views)]  # fmt: skip
+                row = pixel_statistics(np.concatenate([g.ravel() for g in glints]))
+                energy = luminance(self.shade(distance, "glints", ENERGY_FILTER[approach])[0])
+                row["energy_rel_error"] = float(energy.mean() / truth_energy - 1.0)
+                finals = [self.tone_mapped(self.shade(distance, "full", approach, v)[0])
+                          for v in range(stats_views)]  # fmt: skip
+                row["sparkle_fraction"] = float(np.mean([sparkle_fraction(f) for f in finals]))
+                if approach != "ground-truth":
+                    row["ms"] = costs[approach]
+                per_approach[approach] = row
+            self.material.glint_filter = "ours"
+            if distance in TARGET_DISTANCES:
+                for approach, value in self.flicker(distance).items():
+                    per_approach[approach]["flicker"] = value
             for approach in APPROACHES:
-                for n in SAMPLE_COUNTS:
-                    image, ms = self.shade(distance, "close", approach, n)
-                    glint, _ = self.shade(distance, "glints", approach, n)
-                    energy = luminance(glint).mean()
-                    per_distance[f"{approach}-{n}"] = {
-                        "approach": approach,
-                        "sample_count": n,
-                        "mae": float(np.abs(luminance(image) - truth_lum).mean()),
-                        "glint_energy_rel_error": float(energy / truth_energy - 1.0),
-                        "ms": ms,
-                        "default": n == default_n,
-                    }
-            image, ms = self.shade(distance, "close", "none")
-            glint, _ = self.shade(distance, "glints", "none")
-            per_distance["none"] = {
-                "approach": "none",
-                "sample_count": 1,
-                "mae": float(np.abs(luminance(image) - truth_lum).mean()),
-                "glint_energy_rel_error": float(luminance(glint).mean() / truth_energy - 1.0),
-                "ms": ms,
-                "default": False,
-            }
-            curves[str(distance)] = per_distance
-            default_error[str(distance)] = per_distance[f"ours-{default_n}"][
-                "glint_energy_rel_error"
-            ]
-            costs.append(
-                per_distance[f"ours-{default_n}"]["ms"] / per_distance["reference-7"]["ms"]
-            )
-            print(f"  curves at {distance} m", file=sys.stderr, flush=True)
-        return curves, default_error, {"median": statistics.median(costs), "per_distance": costs}
+                row, truth = per_approach[approach], per_approach["ground-truth"]
+                for key in ("cv", "p99_over_mean", "p999_over_mean"):
+                    row[f"{key}_vs_ground_truth"] = (
+                        row[key] / truth[key] - 1.0 if truth[key] > 0 else None
+                    )
+                row["cost_vs_reference_7x7"] = row["ms"] / per_approach["reference"]["ms"]
+            results[str(distance)] = per_approach
+            print(f"  sparkle at {distance} m", file=sys.stderr, flush=True)
+        return results
 
-    def flicker(self, distance: float = 1.0, frames: int = 8) -> dict:
-        """Mean frame-to-frame luminance change of glint pixels under sub-pixel camera motion, as
-        a fraction of their mean true glint luminance; the ground truth's own value is the floor
-        (motion itself changes what a pixel sees)."""
+    def costs_ms(self, distance: float) -> dict:
+        """Median ms of each approach's close-range shading of the whole probe frame, the
+        approaches taken in turn in every round, so that a load on the machine that comes and
+        goes weighs on all of them alike."""
+        camera = self.probe.camera(distance)
+        times = {approach: [] for approach in APPROACHES}
+        for round_ in range(self.repeats + 1):
+            for approach in APPROACHES:
+                self.material.glint_filter = approach
+                ms = self.probe.render(camera, "close")[1]
+                if round_ > 0:  # the first round warms up
+                    times[approach].append(ms)
+        self.material.glint_filter = "ours"
+        return {approach: statistics.median(t) for approach, t in times.items()}
+
+    def flicker(self, distance: float, frames: int = 4, views: int = 2) -> dict:
+        """Mean frame-to-frame change of a pixel's glint luminance under sub-pixel camera
+        motion, over the approach's own mean glint (views pooled): sparkles that stay on the
+        surface change only where they cross pixel edges, as the facets of the ground truth
+        do; an approach with no glint left has none to change (0)."""
         shifts = [(0.37 * t, 0.23 * t) for t in range(frames)]
-        sequences = {}
-        for name, glint_filter in (("truth", "ground-truth"), ("none", "none"),
-                                   ("reference", "reference"), ("ours", "ours")):  # fmt: skip
-            sequences[name] = np.stack(
-                [
-                    luminance(self.shade(distance, "glints", glint_filter, shift=s)[0])
-                    for s in shifts
-                ]
+        result = {}
+        for approach in ("ground-truth", *APPROACHES):
+            change, level = [], []
+            for view in range(views):
+                sequence = np.stack(
+                    [luminance(self.shade(distance, "glints", approach, view, s)[0])
+                     for s in shifts]
+                )  # fmt: skip
+                change.append(np.abs(np.diff(sequence, axis=0)).mean())
+                level.append(sequence.mean())
+            result[approach] = (
+                float(np.mean(change) / np.mean(level)) if np.mean(level) > 0 else 0.0
             )
-        truth = sequences["truth"]
-        glinting = truth.max(axis=0) > np.percentile(truth.max(axis=0), 95)
-        level = float(truth[:, glinting].mean())
-
-        def change(seq):
-            return float(np.abs(np.diff(seq, axis=0))[:, glinting].mean()) / level
-
-        result = {name: change(seq) for name, seq in sequences.items()}
-        result["ground_truth"] = result.pop("truth")
-        result["distance_m"] = distance
         return result
+
+    def look(self) -> dict:
+        """Sparkle share of whole frames of ``sand-editor render`` (the renderer, terrain, sky,
+        bloom, tone mapping) at LOOK_SIZE, looking towards and away from the sun, for our
+        glints and the reference's look (mode ``reference-look``)."""
+        from sand_editor.render.camera import camera_at_distance
+        from sand_editor.render.renderer import SandRenderer
+        from sand_editor.render.sky import parse_time, sky_at
+
+        renderer = SandRenderer(self.ctx)
+        renderer.set_material(self.material)
+        width, height = LOOK_SIZE
+        results = {}
+        try:
+            for time_text in LOOK_TIMES:
+                sky = sky_at(parse_time(time_text))
+                sun = sky.sun_direction
+                towards = math.degrees(math.atan2(float(sun[0]), -float(sun[2])))
+                for distance in LOOK_DISTANCES:
+                    for facing, heading in (("towards", towards), ("away", towards + 180.0)):
+                        camera = camera_at_distance(
+                            distance, 45.0, width / height, heading_deg=heading,
+                            ground_height=lambda x, z: float(renderer.terrain.height(x, z)),
+                        )  # fmt: skip
+                        key = f"{time_text} {distance} m {facing}"
+                        results[key] = {
+                            mode: sparkle_fraction(
+                                renderer.render_to_array(width, height, camera, sky, mode)
+                            )
+                            for mode in ("full", "reference-look")
+                        }
+        finally:
+            renderer.release()
+        return results
 
     def frame_costs(self) -> dict:
         """Per-megapixel costs of the parts of a frame, and what skipping negligible close-range
@@ -189,20 +316,25 @@ class Bench:
 
 def run(quick: bool = False) -> dict:
     bench = Bench(quick)
-    curves, default_error, cost = bench.curves()
+    sparkle = bench.sparkle()
     results = {
         "machine": machine_description(bench.ctx),
         "preset": bench.preset.name,
         "probe_size": [bench.probe.width, bench.probe.height],
         "texture_size": bench.material.texture_size,
-        "ground_truth_samples": bench.gt_samples**2,
-        "curves": curves,
-        "default_relative_error": default_error,
-        "cost_vs_reference_7x7": cost["median"],
-        "cost_vs_reference_7x7_per_distance": dict(
-            zip(map(str, DISTANCES), cost["per_distance"], strict=True)
+        "views_pooled": bench.views,
+        "sparkle": {
+            d: {
+                a: {k: row[k] for k in ("cv", "p99_over_mean", "sparkle_fraction")}
+                for a, row in rows.items()
+            }
+            for d, rows in sparkle.items()
+        },  # fmt: skip
+        "per_distance": sparkle,
+        "cost_vs_reference_7x7_close": statistics.median(
+            sparkle[str(d)]["ours"]["cost_vs_reference_7x7"] for d in (0.1, 0.3, 1.0)
         ),
-        "flicker": bench.flicker(),
+        "look": bench.look(),
         "frame_cost_ms_per_megapixel": bench.frame_costs(),
     }
     stereo = bench.stereo()
@@ -211,37 +343,42 @@ def run(quick: bool = False) -> dict:
     return results
 
 
+def _pct(value) -> str:
+    return "" if value is None else f"{value * 100:+.0f} %"
+
+
 def format_table(results: dict) -> str:
-    n = next(
-        v["sample_count"] for v in next(iter(results["curves"].values())).values() if v["default"]
-    )
     lines = [
         f"Render, preset {results['preset']}, probe {results['probe_size'][0]}×"
-        f"{results['probe_size'][1]}, ground truth {results['ground_truth_samples']} samples per "
-        f"pixel, {results['machine']['gl_renderer']}",
+        f"{results['probe_size'][1]} (lower half), grain textures {results['texture_size']}², "
+        f"{results['machine']['gl_renderer']}",
         "",
-        "| distance | approach | N | luminance MAE | glint energy error | ms |",
-        "| ---: | --- | ---: | ---: | ---: | ---: |",
+        "| distance | approach | glint energy | CV | vs GT | p99/mean | vs GT | p99.9/mean | "
+        "vs GT | sparkles in final image | flicker | ms | cost / reference 7×7 |",
+        "| ---: | --- |" + " ---: |" * 11,
     ]
-    for distance, rows in results["curves"].items():
-        for r in rows.values():
-            mark = " (default)" if r["default"] and r["approach"] == "ours" else ""
+    for distance, rows in results["per_distance"].items():
+        for approach, r in rows.items():
+            flicker = f"{r['flicker']:.2f}" if "flicker" in r else ""
+            ms = f"{r['ms']:.1f}" if "ms" in r else ""
+            cost = f"{r['cost_vs_reference_7x7']:.2f}" if "cost_vs_reference_7x7" in r else ""
             lines.append(
-                f"| {distance} m | {r['approach']}{mark} | {r['sample_count']} | {r['mae']:.4f} | "
-                f"{r['glint_energy_rel_error'] * 100:+.1f} % | {r['ms']:.1f} |"
+                f"| {distance} m | {approach} | {r['energy_rel_error'] * 100:+.1f} % | "
+                f"{r['cv']:.2f} | {_pct(r.get('cv_vs_ground_truth'))} | {r['p99_over_mean']:.1f} | "
+                f"{_pct(r.get('p99_over_mean_vs_ground_truth'))} | {r['p999_over_mean']:.1f} | "
+                f"{_pct(r.get('p999_over_mean_vs_ground_truth'))} | "
+                f"{r['sparkle_fraction'] * 100:.3f} % | {flicker} | {ms} | {cost} |"
             )
+    lines += ["", f"| {LOOK_SIZE[0]}×{LOOK_SIZE[1]} frame | ours | reference-look |",
+              "| --- | ---: | ---: |"]  # fmt: skip
+    for view, shares in results["look"].items():
+        lines.append(
+            f"| {view} | {shares['full'] * 100:.3f} % | {shares['reference-look'] * 100:.3f} % |"
+        )
     lines.append("")
-    errors = ", ".join(
-        f"{d} m: {e * 100:+.1f} %" for d, e in results["default_relative_error"].items()
-    )
-    lines.append(f"Glint energy error of ours at the default (N = {n}): {errors}")
-    cost = results["cost_vs_reference_7x7"]
-    lines.append(f"Cost of ours at the default over the reference's 7×7: {cost:.2f}")
-    f = results["flicker"]
     lines.append(
-        f"Flicker at {f['distance_m']} m (frame-to-frame change of glint pixels over their true "
-        f"luminance): none {f['none']:.2f}, reference 7×7 {f['reference']:.2f}, "
-        f"ours {f['ours']:.2f}, ground truth {f['ground_truth']:.2f}"
+        "Close-range cost of ours over the reference's 7×7 (median over 0.1, 0.3, 1 m): "
+        f"{results['cost_vs_reference_7x7_close']:.2f}"
     )
     c = results["frame_cost_ms_per_megapixel"]
     lines.append(
@@ -260,45 +397,34 @@ def format_table(results: dict) -> str:
 
 
 def plot(results: dict, path: str) -> None:
-    """Per distance: glint energy error (top) and luminance MAE (bottom) against time."""
+    """Per distance: glint energy error, per-pixel CV and sparkle share of each approach."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    distances = list(results["curves"])
-    fig, axes = plt.subplots(2, len(distances), figsize=(3.0 * len(distances), 5.6), sharey="row")
-    axes = np.atleast_2d(axes)
-    metrics = (
-        ("glint energy error (%)", lambda r: abs(r["glint_energy_rel_error"]) * 100),
-        ("luminance MAE", lambda r: r["mae"]),
+    rows = results["per_distance"]
+    distances = [float(d) for d in rows]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    panels = (
+        ("glint energy error (%)", lambda r: r["energy_rel_error"] * 100, "linear"),
+        ("per-pixel CV of glint luminance", lambda r: r["cv"], "log"),
+        ("sparkles in the final image (%)", lambda r: r["sparkle_fraction"] * 100, "linear"),
     )
-    for column, distance in enumerate(distances):
-        rows = results["curves"][distance]
-        for row, (label, value) in enumerate(metrics):
-            ax = axes[row, column]
-            for approach, colour in (("ours", "C0"), ("reference", "C1")):
-                points = sorted(
-                    (r["ms"], value(r), r["default"])
-                    for r in rows.values()
-                    if r["approach"] == approach
-                )
-                ax.plot([p[0] for p in points], [p[1] for p in points], "o-", color=colour,
-                        label=approach)  # fmt: skip
-                for ms, v, is_default in points:
-                    if is_default:
-                        ax.plot(ms, v, "*", color=colour, markersize=14)
-            ax.plot(rows["none"]["ms"], value(rows["none"]), "s", color="C3", label="none")
-            ax.set_xscale("log")
-            ax.minorticks_off()
-            if row == 0:
-                ax.set_title(f"{distance} m")
-            else:
-                ax.set_xlabel("ms (probe)")
-            if column == 0:
-                ax.set_ylabel(label)
-    axes[0, 0].legend(fontsize=8)
-    fig.suptitle("Close-range shading against a 256-sample ground truth (★ = preset default)")
+    styles = {"ground-truth": ("k", "o--"), "ours": ("C0", "o-"), "expected": ("C2", "s-"),
+              "reference": ("C1", "^-"), "none": ("C3", "v:")}  # fmt: skip
+    for ax, (label, value, scale) in zip(axes, panels, strict=True):
+        for approach, (colour, style) in styles.items():
+            ys = [value(rows[d][approach]) for d in rows]
+            if scale == "log":
+                ys = [max(y, 1e-3) for y in ys]
+            ax.plot(distances, ys, style, color=colour, label=approach)
+        ax.set_xscale("log")
+        ax.set_yscale(scale)
+        ax.set_xlabel("distance (m)")
+        ax.set_title(label)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"Glints of {results['preset']} against a ground truth of every facet")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
 

@@ -19,8 +19,21 @@ from sand_editor.preset import Preset
 
 DEFAULT_TEXTURE_SIZE = 1024
 RIPPLE_MAP_SIZE = 256
-# Glint filters of shaders/sand_surface.glsl.
-GLINT_FILTERS = {"ours": 0, "reference": 1, "none": 2, "ground-truth": 3}
+# Glint filters of shaders/sand_surface.glsl; all but "ours" exist only in the probe's program
+# variant (SAND_PROBE), for the benchmark: "expected" is the footprint moments' expected value
+# without the sparkle, "reference" the reference's N×N multisampling, "none" one finest tap, and
+# "ground-truth" every grain facet in the pixel; "ours-mean" and "ground-truth-mean" are the
+# expectations of "ours" and "ground-truth" over their draws (energy without the draws' noise).
+GLINT_FILTERS = {
+    "ours": 0,
+    "expected": 1,
+    "reference": 2,
+    "none": 3,
+    "ground-truth": 4,
+    "ours-mean": 5,
+    "ground-truth-mean": 6,
+}
+
 # Close-range work is skipped where the far term's blend weight is above this.
 CLOSE_CUTOFF = 0.999
 
@@ -250,13 +263,17 @@ class SandMaterial:
         return unit
 
     def release(self) -> None:
+        """Release every GL object the material made (safe to call twice)."""
         if self._grains is not None:
             self._grains.release()
+            self._grains = None
         for obj in (
             self._build_fbo,
+            self._build,
             self.albedo,
             self.glint_moments,
             self.spread_moments,
+            self.hole_moments,
             self.ripple_steep,
             self.ripple_shallow,
             self.detail,

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
-MODES = ("full", "lambert", "close", "far", "blend", "glints", "normals", "mip")
+MODES = ("full", "lambert", "close", "far", "blend", "glints", "normals", "mip", "reference-look")
 MODE_HELP = {
     "full": "the material: glints and grains close up, BRDF far away, blended by distance",
+    "reference-look": "the full material with the reference's glints (its gain and distance boost"
+    " e^(5m), expected values without sparkle), for comparison",
     "lambert": "plain Lambertian shading of the average colour on the macro normal (comparison)",
     "close": "close-range shading only (grain normals, glints, diffuse)",
     "far": "far-range shading only (d'Eon's BRDF on the rippled macro normal)",
@@ -27,4 +29,4 @@ def mode_index(mode: str) -> int:
 
 def mode_defines() -> dict[str, int]:
     """``MODE_FULL`` = 0, ``MODE_LAMBERT`` = 1, … for the shaders."""
-    return {f"MODE_{name.upper()}": index for index, name in enumerate(MODES)}
+    return {f"MODE_{name.upper().replace('-', '_')}": index for index, name in enumerate(MODES)}

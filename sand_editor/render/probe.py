@@ -17,6 +17,32 @@ from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import mode_defines, mode_index
 
 PLANE_HALF_EXTENT = 1.0e5  # metres: past the far plane of every probe view
+PLANE_INNER_RADIUS = 1.0e-5  # metres: the innermost ring of the plane's mesh
+PLANE_SEGMENTS = 48
+
+
+def plane_vertices() -> np.ndarray:
+    """Triangles of the plane y = 0 in rings doubling in radius about the origin (where every
+    probe camera looks): each triangle spans coordinates of its own size, so interpolated
+    positions and texture coordinates keep float32 precision (one quad ±1e5 m wide would
+    interpolate them only to centimetres, and move texture-anchored detail with the camera)."""
+    radii = [0.0]
+    while radii[-1] < PLANE_HALF_EXTENT:
+        radii.append(max(2.0 * radii[-1], PLANE_INNER_RADIUS))
+    angles = np.linspace(0.0, 2.0 * np.pi, PLANE_SEGMENTS + 1)
+    ring = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    triangles = []
+    for inner, outer in zip(radii, radii[1:], strict=False):
+        for a, b in zip(ring[:-1], ring[1:], strict=True):
+            quad = (inner * a, outer * a, outer * b, inner * b)
+            triangles += [quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]]
+    xz = np.array(triangles)
+    vertices = np.zeros((len(xz), 11), dtype="f4")
+    vertices[:, 0], vertices[:, 2] = xz[:, 0], xz[:, 1]
+    vertices[:, 4] = 1.0  # normal
+    vertices[:, 6] = 1.0  # tangent
+    vertices[:, 9:11] = xz
+    return vertices
 
 
 class MaterialProbe:
@@ -26,17 +52,12 @@ class MaterialProbe:
         self.material = material
         ctx = self.ctx = material.ctx
         self.width, self.height = width, height
-        # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz.
-        self.program = program(ctx, "terrain.glsl", mode_defines())
-        self.far_program = program(ctx, "terrain.glsl", {**mode_defines(), "SAND_FAR_ONLY": 1})
-        e = PLANE_HALF_EXTENT
-        corners = np.array([[-e, -e], [e, -e], [e, e], [-e, -e], [e, e], [-e, e]])
-        vertices = np.zeros((6, 11), dtype="f4")
-        vertices[:, 0], vertices[:, 2] = corners[:, 0], corners[:, 1]
-        vertices[:, 4] = 1.0  # normal
-        vertices[:, 6] = 1.0  # tangent
-        vertices[:, 9:11] = corners
-        self._buffer = ctx.buffer(vertices.tobytes())
+        # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz;
+        # compiled with the benchmark's glint filters (SAND_PROBE), which production lacks.
+        defines = {**mode_defines(), "SAND_PROBE": 1}
+        self.program = program(ctx, "terrain.glsl", defines)
+        self.far_program = program(ctx, "terrain.glsl", {**defines, "SAND_FAR_ONLY": 1})
+        self._buffer = ctx.buffer(plane_vertices().tobytes())
         self._vaos = [
             ctx.vertex_array(
                 p, [(self._buffer, "3f 3f 3f 2f", "a_position", "a_normal", "a_tangent", "a_uv")]
@@ -60,8 +81,13 @@ class MaterialProbe:
         shift[1, 3] = 2.0 * shift_px[1] / self.height
         return Camera(view=camera.view, projection=(shift @ camera.projection).astype(np.float32))
 
-    def render(self, camera: Camera, mode: str = "full") -> tuple[np.ndarray, float]:
-        """HDR radiance (height, width, 3), rows top-down, and the GPU time in milliseconds."""
+    def render(
+        self, camera: Camera, mode: str = "full", lower_half: bool = False
+    ) -> tuple[np.ndarray, float]:
+        """HDR radiance (height, width, 3), rows top-down, and the GPU time in milliseconds.
+
+        ``lower_half`` shades only the frame's lower half (the rest stays 0): the sand nearest
+        the camera, where a pixel's footprint is the view's own, not a grazing streak."""
         sun = self.sun_direction / np.linalg.norm(self.sun_direction)
         lights = {
             "u_eye": camera.position,
@@ -84,10 +110,15 @@ class MaterialProbe:
             self.ctx.enable(moderngl.DEPTH_TEST)
             self.ctx.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self.ctx.finish()
+            if lower_half:
+                self.ctx.scissor = (0, 0, self.width, self.height // 2)
             start = time.perf_counter()
-            for vao in self._vaos:
-                vao.render(moderngl.TRIANGLES)
-            self.ctx.finish()
+            try:
+                for vao in self._vaos:
+                    vao.render(moderngl.TRIANGLES)
+                self.ctx.finish()
+            finally:
+                self.ctx.scissor = None
             elapsed_ms = (time.perf_counter() - start) * 1e3
         pixels = np.frombuffer(self._colour.read(), dtype=np.float32).reshape(
             self.height, self.width, 4
@@ -95,5 +126,6 @@ class MaterialProbe:
         return np.ascontiguousarray(pixels[::-1, :, :3]), elapsed_ms
 
     def release(self) -> None:
-        for obj in (*self._vaos, self._buffer, self._fbo, self._colour, self._depth):
+        for obj in (*self._vaos, self._buffer, self._fbo, self._colour, self._depth, self.program,
+                    self.far_program):  # fmt: skip
             obj.release()

@@ -67,16 +67,53 @@ def test_render_bench_writes_every_key(tmp_path):
     result = subprocess.run(
         [sys.executable, "-m", "sand_editor", "bench", "render", "--quick",
          "--json", str(json_path)],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True, text=True, timeout=900,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
+    assert "| 1.0 m | ours |" in result.stdout
     data = json.loads(json_path.read_text())
-    for key in ("curves", "default_relative_error", "flicker", "cost_vs_reference_7x7",
+    for key in ("sparkle", "per_distance", "look", "cost_vs_reference_7x7_close",
                 "stereo_ms_per_megapixel"):  # fmt: skip
         assert key in data
-    for per_distance in data["curves"].values():
-        for row in per_distance.values():
-            assert np.isfinite([row["mae"], row["ms"], row["glint_energy_rel_error"]]).all()
-    assert set(data["flicker"]) >= {"none", "reference", "ours"}
-    assert data["flicker"]["ours"] < data["flicker"]["none"]
-    assert 0 < data["cost_vs_reference_7x7"] < 1
+    approaches = {"ground-truth", "ours", "expected", "reference", "none"}
+    for distance in ("0.1", "0.3", "1.0", "3.0", "10.0", "30.0"):
+        assert set(data["sparkle"][distance]) == approaches
+        for row in data["sparkle"][distance].values():
+            assert set(row) == {"cv", "p99_over_mean", "sparkle_fraction"}
+            assert np.isfinite(list(row.values())).all()
+        for row in data["per_distance"][distance].values():
+            assert np.isfinite(row["energy_rel_error"])
+    # Sparkles keep the per-pixel spread that the expected value loses, close and mid range.
+    for distance in ("1.0",):
+        rows = data["sparkle"][distance]
+        assert rows["ours"]["cv"] > 3 * rows["expected"]["cv"]
+        assert rows["ours"]["sparkle_fraction"] > rows["expected"]["sparkle_fraction"]
+    assert 0 < data["cost_vs_reference_7x7_close"] < 1
+    # The look: sparkles in whole frames close up, none at 30 m.
+    assert any(v["full"] > 0 for k, v in data["look"].items() if " 1.0 m " in k)
+    assert all(v["full"] == 0 for k, v in data["look"].items() if " 30.0 m " in k)
+
+
+def test_sparkle_fraction_counts_pixels_twice_their_neighbourhood():
+    from sand_editor.bench.render import sparkle_fraction, sparkle_mask
+
+    image = np.full((40, 40, 3), 90, dtype=np.uint8)
+    assert sparkle_fraction(image) == 0.0
+    image[10, 10] = 255  # far brighter than the grey around it
+    image[30, 30] = 110  # brighter, but not twice as bright in luminance
+    mask = sparkle_mask(image)
+    assert mask[10, 10] and not mask[30, 30]
+    assert sparkle_fraction(image) == 1 / 1600
+
+
+def test_pixel_statistics_of_a_sparkling_field():
+    from sand_editor.bench.render import pixel_statistics
+
+    field = np.zeros(1000)
+    field[:5] = 1.0  # 0.5 % of pixels
+    stats = pixel_statistics(field)
+    assert stats["mean"] == pytest.approx(0.005)
+    assert stats["cv"] == pytest.approx(np.sqrt(0.005 * 0.995) / 0.005)
+    assert stats["p99_over_mean"] == 0.0
+    assert stats["p999_over_mean"] == pytest.approx(200.0)
+    assert pixel_statistics(np.zeros(10))["cv"] == 0.0

@@ -15,14 +15,18 @@ pytestmark = pytest.mark.gl
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
-@pytest.fixture(scope="module")
-def probe(gl_ctx):
-    material = SandMaterial(gl_ctx, 256)
+def _probe(ctx, texture_size: int):
+    material = SandMaterial(ctx, texture_size)
     material.update(Preset())
     probe = MaterialProbe(material, 96, 72)
     yield probe
     probe.release()
     material.release()
+
+
+@pytest.fixture(scope="module")
+def probe(gl_ctx):
+    yield from _probe(gl_ctx, 256)
 
 
 @pytest.fixture(autouse=True)
@@ -47,9 +51,17 @@ def test_glints_are_present_close_up(probe):
     probe.material.update(Preset().replace(**{"shading.glint_mu": 0.9, "shading.glint_sigma": 0.2}))
     glints = shade(probe, 0.1, "glints") @ LUMINANCE
     diffuse = shade(probe, 0.1, "close") @ LUMINANCE - glints
-    assert (glints > 0).mean() > 0.01
     # Glints are highlights: the brightest are far above the diffuse sand around them.
     assert glints.max() > 2 * np.median(diffuse)
+
+
+def test_sparkles_concentrate_the_expected_glint_into_few_bright_pixels(probe):
+    sparkles = shade(probe, 0.3, "glints") @ LUMINANCE
+    probe.material.glint_filter = "expected"
+    expected = shade(probe, 0.3, "glints") @ LUMINANCE
+    assert (expected > 0).mean() > 0.2
+    assert 0 < (sparkles > 0).mean() < 0.2 * (expected > 0).mean()
+    assert sparkles.max() > 10 * expected.max()
 
 
 def test_no_glints_far_away_only_the_brdf(probe):
@@ -108,18 +120,18 @@ def test_our_filtering_keeps_glint_energy_where_mipmapped_normals_lose_it(gl_ctx
     probe = MaterialProbe(material, 160, 120)
     try:
         energies = {}
-        for name in ("ground-truth", "ours", "reference"):
+        for name in ("expected", "ours", "reference"):
             material.glint_filter = name
-            material.ground_truth_samples = 12
-            frames = [shade(probe, 3.0, "glints", shift_px=(0.37 * t, 0.61 * t)) for t in range(2)]
+            frames = [shade(probe, 3.0, "glints", shift_px=(0.37 * t, 0.61 * t)) for t in range(4)]
             energies[name] = np.mean([frame.mean() for frame in frames])
     finally:
         probe.release()
         material.release()
-    truth = energies["ground-truth"]
-    assert truth > 0
-    assert abs(energies["ours"] / truth - 1) < 0.2
-    assert abs(energies["reference"] / truth - 1) > 0.5
+    expected = energies["expected"]
+    assert expected > 0
+    # The drawn sparkle's expectation is the moments' expected value.
+    assert abs(energies["ours"] / expected - 1) < 0.15
+    assert abs(energies["reference"] / expected - 1) > 0.5
 
 
 def test_ours_flickers_less_than_no_filtering(probe):
@@ -130,7 +142,9 @@ def test_ours_flickers_less_than_no_filtering(probe):
         ]
         return np.abs(np.diff(np.stack(frames), axis=0)).mean()
 
-    assert change("ours") < 0.5 * change("none")
+    # Sparkles move with the surface (anchored), so their pixels change under motion, but less
+    # than unfiltered grains, whose one tap jumps between slopes.
+    assert change("ours") < change("none")
 
 
 def test_updates_redo_only_what_changed(probe):
@@ -159,3 +173,139 @@ def test_grazing_views_show_no_dark_patches_of_ripple_backs(probe):
     sand = image[image > 0]
     assert sand.size > 1000
     assert sand.min() > 0.4 * np.median(sand)
+
+
+def test_release_frees_every_gl_object_it_made(gl_ctx):
+    material = SandMaterial(gl_ctx, 64)
+    material.update(Preset())
+    made = [v for k, v in vars(material).items() if k != "ctx" and hasattr(v, "mglo")]
+    made += [v for v in vars(material._grains).values() if hasattr(v, "mglo")]
+    assert len(made) >= 10, made
+    material.release()
+    alive = [obj for obj in made if type(obj.mglo).__name__ != "InvalidObject"]
+    assert not alive, f"left alive: {alive}"
+
+
+def _sparkles(probe, camera, reference_frame=None):
+    glints = probe.render(camera, "glints")[0] @ LUMINANCE
+    assert np.isfinite(glints).all()
+    return glints
+
+
+def test_sparkles_are_bright_few_and_where_the_expected_glint_is(probe):
+    camera = probe.camera(0.3)
+    sparkle = _sparkles(probe, camera)
+    probe.material.glint_filter = "expected"
+    expected = _sparkles(probe, camera)
+    lit = sparkle > 0
+    assert 0 < lit.mean() < 0.2
+    # A sparkle only where some grain can glint there, and far above that pixel's expectation.
+    assert (expected[lit] > 0).all()
+    assert np.median(sparkle[lit] / expected[lit]) > 5
+
+
+def test_sparkles_stay_on_the_surface_under_sub_pixel_camera_motion(probe):
+    # Shift the camera by whole pixels along the image: an anchored sparkle moves with the
+    # image, one drawn in screen space would stay or reshuffle.
+    still = _sparkles(probe, probe.camera(0.3))
+    moved = _sparkles(probe, probe.camera(0.3, shift_px=(3.0, 0.0)))
+    a, b = still[:, :-3] > 0, moved[:, 3:] > 0
+    assert a.sum() > 3
+    overlap = (a & b).sum() / max(a.sum(), 1)
+    assert overlap > 0.6, overlap
+    # Without the shift compensation they do not line up: the pattern is not tied to the screen.
+    assert (a & (moved[:, :-3] > 0)).sum() / max(a.sum(), 1) < 0.5 * overlap
+
+
+def test_the_two_eyes_of_a_stereo_pair_see_different_sparkles(probe):
+    from sand_editor.render.camera import Camera, look_at_matrix
+
+    base = probe.camera(0.3)
+    eye = base.eye
+    right = np.cross(base.forward.astype(np.float64), (0.0, 1.0, 0.0))
+    right /= np.linalg.norm(right)
+    target = eye + 0.3 * base.forward.astype(np.float64)
+
+    def eye_camera(offset):
+        position = eye + offset * right
+        # Both eyes converge on the same point; the surface there is seen from 63 mm apart.
+        return Camera(look_at_matrix(position, target), base.projection, position)
+
+    left, right_eye = (_sparkles(probe, eye_camera(s)) for s in (-0.0315, 0.0315))
+    assert (left > 0).sum() > 3 and (right_eye > 0).sum() > 3
+    both = ((left > 0) & (right_eye > 0)).sum()
+    assert both < 0.5 * min((left > 0).sum(), (right_eye > 0).sum())
+
+
+@pytest.fixture(scope="module")
+def fine_probe(gl_ctx):
+    # Grain textures fine enough that a 200 µm facet is under a texel: the ground truth's facets
+    # then see the grains as the renderer does.
+    yield from _probe(gl_ctx, 512)
+
+
+def _lower_half_glints(probe, glint_filter, distance, views=4):
+    from sand_editor.render.camera import camera_at_distance
+
+    probe.material.glint_filter = glint_filter
+    try:
+        frames = []
+        for view in range(views):
+            target = (0.37 * view * distance, 0.23 * view * distance)
+            camera = camera_at_distance(distance, 45.0, 96 / 72, target_xz=target)
+            image = probe.render(camera, "glints", lower_half=True)[0] @ LUMINANCE
+            assert np.isfinite(image).all()
+            frames.append(image[36:])
+        return np.stack(frames)
+    finally:
+        probe.material.glint_filter = "ours"
+
+
+@pytest.mark.slow
+def test_sparkles_appear_where_the_ground_truth_has_them_with_its_statistics(fine_probe):
+    ours = _lower_half_glints(fine_probe, "ours", 1.0)
+    truth = _lower_half_glints(fine_probe, "ground-truth", 1.0)
+    expected = _lower_half_glints(fine_probe, "ground-truth-mean", 1.0)
+    # Only where some facet could mirror the sun.
+    assert (expected[ours > 0] > 0).all()
+    # Per-pixel spread and energy of the ground truth's sparkles.
+    cv = {name: img.std() / img.mean() for name, img in (("ours", ours), ("truth", truth))}
+    assert abs(cv["ours"] / cv["truth"] - 1) < 0.3, cv
+    assert abs(ours.mean() / truth.mean() - 1) < 0.2
+    assert abs((ours > 0).mean() / (truth > 0).mean() - 1) < 0.3
+    # Where the ground truth sparkles more (bands of the view whose half vectors meet more
+    # facets), so do ours.
+    bands = lambda img: (img > 0).reshape(img.shape[0], 6, 6, 96).mean(axis=(0, 2, 3))  # noqa: E731
+    assert np.corrcoef(bands(ours), bands(truth))[0, 1] > 0.5
+
+
+@pytest.mark.parametrize("glint_filter", ["ground-truth", "ours-mean", "ground-truth-mean"])
+@pytest.mark.parametrize(("distance", "pitch"), [(0.001, 45.0), (1000.0, 45.0), (1.0, 1.0)])
+def test_benchmark_filters_are_finite_at_hard_views(probe, glint_filter, distance, pitch):
+    probe.material.glint_filter = glint_filter
+    image = shade(probe, distance, "glints", pitch)
+    assert image.min() >= 0.0
+
+
+@pytest.mark.slow
+def test_sparkles_flicker_no_more_than_the_ground_truth_under_sub_pixel_motion(fine_probe):
+    def flicker(glint_filter):
+        fine_probe.material.glint_filter = glint_filter
+        try:
+            frames = np.stack(
+                [
+                    (shade(fine_probe, 1.0, "glints", shift_px=(0.37 * t, 0.23 * t)) @ LUMINANCE)[
+                        36:
+                    ]
+                    for t in range(4)
+                ]
+            )
+        finally:
+            fine_probe.material.glint_filter = "ours"
+        return np.abs(np.diff(frames, axis=0)).mean() / frames.mean()
+
+    ours, truth = flicker("ours"), flicker("ground-truth")
+    assert truth > 0.2  # sparkles do cross pixel edges as the camera moves
+    # As much as the facets themselves, within this small frame's noise; far from a redraw of
+    # every sparkle in every frame (2 on this scale).
+    assert ours < 1.2 * truth, (ours, truth)

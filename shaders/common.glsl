@@ -1,0 +1,27 @@
+// Shared by every program: constants, the integer hash and sRGB encoding; sand_editor/gl.py
+// includes it once per program.
+
+const float PI = 3.14159265358979;
+const float MAX_HALF = 60000.0;  // largest radiance written to half-float targets
+
+// Integer hash (lowbias32, Chris Wellons): the same numbers on every GPU, and in numpy
+// (sand_editor/generator/noise.py mirrors it for the grains).
+uint lowbias32(uint x) {
+    x ^= x >> 16u; x *= 0x7feb352du;
+    x ^= x >> 15u; x *= 0x846ca68bu;
+    return x ^ (x >> 16u);
+}
+
+// A uniform number in [0, 1) from 24 bits of a hash.
+float hash01(uint x) { return float(lowbias32(x) >> 8u) / 16777216.0; }
+
+// Hash of a 2D integer cell with a key: anchored in texture space when the cell is a texel.
+uint hash_cell(ivec2 cell, uint key) {
+    return lowbias32(uint(cell.x) ^ lowbias32(uint(cell.y) ^ lowbias32(key)));
+}
+
+vec3 srgb_encode(vec3 linear) {
+    vec3 low = linear * 12.92;
+    vec3 high = 1.055 * pow(linear, vec3(1.0 / 2.4)) - 0.055;
+    return mix(high, low, lessThanEqual(linear, vec3(0.0031308)));
+}
