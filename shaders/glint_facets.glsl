@@ -65,7 +65,7 @@ float poisson_count(float lambda, uint h) {
     return max(k, 1.0);
 }
 
-// Patches expecting at most this many mirroring facets place them one by one.
+// At most this many mirroring facets of a patch are placed one by one.
 const int PLACED_FACETS = 16;
 
 // The patches a pixel's footprint draws its facets from: texels of a mip level at least as wide
@@ -137,23 +137,20 @@ float facets_in_pixel(Patches p, ivec2 cell, float lambda, vec2 b_half, uint lig
     // lines across the image.
     vec2 offset = vec2(open01(patch_key), open01(lowbias32(patch_key)));
     uint key = hash_cell(half_vector_bin(b_half, offset), patch_key);
-    if (lambda > float(PLACED_FACETS)) {
-        // Many facets: those inside the footprint are Poisson with the patch's mean times the
-        // share of it the footprint covers (its bounding box's share, scaled to its area).
-        vec2 lo = max(vec2(cell) * p.size, p.texel - 0.5 * p.extent);
-        vec2 hi = min(vec2(cell + 1) * p.size, p.texel + 0.5 * p.extent);
-        vec2 overlap = max(hi - lo, 0.0);
-        float box = max(p.extent.x * p.extent.y, 1e-30);
-        return poisson_count(lambda * overlap.x * overlap.y / box * p.pixel_facets / p.facets, key);
-    }
+    // Past PLACED_FACETS, that many stand for all of them, each weighing facets/placed: the
+    // expectation is kept and every pixel still counts points of its own, anchored in texture
+    // space. (Drawing a pixel's share with a hash of the patch alone would give every pixel in
+    // it the same quantile: the patch would show as a flat block.)
     float facets = poisson_count(lambda, key);
+    float placed = min(facets, float(PLACED_FACETS));
+    float weight = facets / max(placed, 1.0);
     float count = 0.0;
     for (int k = 0; k < PLACED_FACETS; ++k) {
-        if (float(k) >= facets) break;
+        if (float(k) >= placed) break;
         key = lowbias32(key + 0x9e3779b9u);
         vec2 at = (vec2(cell) + vec2(open01(key), open01(lowbias32(key)))) * p.size;
         vec2 ab = p.to_pixel * (at - p.texel);
         count += abs(ab.x) <= 0.5 && abs(ab.y) <= 0.5 ? 1.0 : 0.0;
     }
-    return count;
+    return count * weight;
 }
