@@ -8,6 +8,20 @@ import numpy as np
 import pytest
 
 
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    """GL tests share this thread's headless context, and a Qt test before them may have left a
+    window's context current instead (libglvnd allows one kind at a time on a thread): make the
+    headless one current again before any fixture of the test uses it."""
+    if "gl_ctx" in item.fixturenames:
+        from sand_editor.gl import GLUnavailableError, standalone_context
+
+        try:
+            standalone_context()
+        except GLUnavailableError:
+            pass  # the gl_ctx fixture skips, or fails in CI, with the reason
+
+
 @pytest.fixture(scope="session")
 def gl_ctx():
     """The headless EGL context of this thread.
