@@ -3,19 +3,31 @@ the material's programs, which is the slow part on a software rasterizer)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import pytest
 
 
-@pytest.fixture(scope="session")
-def sand_renderer(gl_ctx):
+@contextmanager
+def renderer_with_material(ctx, texture_size: int = 64) -> Iterator:
+    """A ``SandRenderer`` drawing the default preset's material, released after the block."""
     from sand_editor.preset import Preset
     from sand_editor.render.material import SandMaterial
     from sand_editor.render.renderer import SandRenderer
 
-    material = SandMaterial(gl_ctx, texture_size=64)
+    material = SandMaterial(ctx, texture_size=texture_size)
     material.update(Preset())
-    renderer = SandRenderer(gl_ctx)
+    renderer = SandRenderer(ctx)
     renderer.set_material(material)
-    yield renderer
-    renderer.release()
-    material.release()
+    try:
+        yield renderer
+    finally:
+        renderer.release()
+        material.release()
+
+
+@pytest.fixture(scope="session")
+def sand_renderer(gl_ctx):
+    with renderer_with_material(gl_ctx) as renderer:
+        yield renderer

@@ -7,6 +7,7 @@ import numpy as np
 from sand_editor.render.camera import Camera, look_at_matrix, perspective
 from sand_editor.render.sky import sky_at
 from sand_editor.render.terrain import sphere_mesh
+from tests.render.conftest import renderer_with_material
 
 SIZE = (48, 36)
 
@@ -67,15 +68,7 @@ def test_both_eyes_of_a_frame_draw_the_same_sphere(sand_renderer, gl_clean):
 
 
 def test_fixed_objects_are_drawn_in_the_sand_material(gl_ctx):
-    from sand_editor.preset import Preset
-    from sand_editor.render.material import SandMaterial
-    from sand_editor.render.renderer import SandRenderer
-
-    material = SandMaterial(gl_ctx, texture_size=64)
-    material.update(Preset())
-    renderer = SandRenderer(gl_ctx)
-    renderer.set_material(material)
-    try:
+    with renderer_with_material(gl_ctx) as renderer:
         ground = float(renderer.terrain.height(0.0, -1.0))
         eye = np.array([0.0, ground + 1.0, 0.5])
         camera = _camera(eye, (0.0, ground + 0.5, -1.0))
@@ -91,6 +84,3 @@ def test_fixed_objects_are_drawn_in_the_sand_material(gl_ctx):
             SIZE[1] // 2 - 3 : SIZE[1] // 2 + 3, SIZE[0] // 2 - 3 : SIZE[0] // 2 + 3
         ].all()
         assert np.all(np.isfinite(with_sphere))
-    finally:
-        renderer.release()
-        material.release()

@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.render.conftest import renderer_with_material
+
 pytestmark = pytest.mark.gl
 
 SPARKLE_LEVEL = 16  # 8-bit value above which a pixel of the glints view holds a sparkle
@@ -23,25 +25,15 @@ def _longest_flat_run(row: np.ndarray) -> int:
 
 
 def test_grazing_sparkles_toward_the_low_sun_are_points_not_blocks(gl_ctx):
-    from sand_editor.preset import Preset
     from sand_editor.render.camera import camera_at_distance
-    from sand_editor.render.material import SandMaterial
-    from sand_editor.render.renderer import SandRenderer
     from sand_editor.render.sky import parse_time, sky_at
 
-    material = SandMaterial(gl_ctx, texture_size=1024)
-    material.update(Preset())
-    renderer = SandRenderer(gl_ctx)
-    renderer.set_material(material)
-    try:
+    with renderer_with_material(gl_ctx, texture_size=1024) as renderer:
         terrain = renderer.terrain
         camera = camera_at_distance(
             0.3, 35.0, 480 / 270, ground_height=lambda x, z: float(terrain.height(x, z))
         )
         image = renderer.render_to_array(480, 270, camera, sky_at(parse_time("16:30")), "glints")
-    finally:
-        renderer.release()
-        material.release()
     band = image[:70].astype(np.int32)  # the far sand, seen at a grazing angle
     assert np.isfinite(band).all()
     lit = band.sum(axis=-1) > 3 * SPARKLE_LEVEL
