@@ -21,6 +21,7 @@ from sand_editor.gl import (
     draw_fullscreen,
     drawing_into,
     fullscreen_program,
+    release_program,
     release_standalone_context,
 )
 from sand_editor.preset import Preset
@@ -84,7 +85,7 @@ class GLResources:
             for name in list(self.targets):
                 self.release_target(name)
             if self.upscale is not None:
-                self.upscale.release()
+                release_program(self.upscale)
             self.release_error = self.ctx.error
             self.ctx.release()
         finally:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import moderngl
 
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
 
 BLOOM_LEVELS = 5
 DEFAULT_BLOOM_STRENGTH = 0.04
@@ -129,7 +129,7 @@ class PostChain:
     def release(self) -> None:
         self._release_targets()
         for program in (self._downsample, self._upsample, self._resolve):
-            program.release()
+            release_program(program)
 
 
 def set_uniform(program, name: str, value) -> None:
