@@ -142,8 +142,14 @@ def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | Non
     )
 
 
-def draw_fullscreen(ctx: moderngl.Context, program) -> None:
-    """Draw the fullscreen triangle with ``program`` (release it with :func:`release_program`)."""
+def draw_fullscreen(ctx: moderngl.Context, program, *, blend: bool = False) -> None:
+    """Draw the fullscreen triangle with ``program`` (release it with :func:`release_program`).
+
+    The pass overwrites its target: blending is turned off first (a host's paint callback may
+    have left it on; Qt does), unless ``blend`` asks to keep the caller's blending.
+    """
+    if not blend:
+        ctx.disable(moderngl.BLEND)
     vao = _fullscreen_vao(ctx, program)
     vao.render(moderngl.TRIANGLES, vertices=3)
 
