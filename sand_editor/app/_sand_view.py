@@ -331,6 +331,9 @@ class SandView(QOpenGLWidget):
             if not self._moving:
                 timings = self._refine(camera, size) or timings
             self._show(screen, size)
+            # Qt's framebuffer stays bound after the paint, as on entry: Qt discards its
+            # depth and stencil after paintGL, an error on any other framebuffer.
+            screen.use()
             # The frame's whole cost, not only the CPU's share of it.
             self.ctx.finish()
         except Exception as error:

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import ctypes
-
-import moderngl
 import numpy as np
 import pytest
 
@@ -16,35 +13,7 @@ from sand_editor.gl import draw_fullscreen, drawing_into, shader_text
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.post import PostChain
-
-_GL = ctypes.CDLL("libGL.so.1")
-_KINDS = ("Texture", "Buffer", "Framebuffer", "Renderbuffer", "VertexArray", "Program", "Shader")
-_VERTEX = "#version 330\nvoid main() { gl_Position = vec4(0.0); }"
-
-
-def live_gl_objects(ctx: moderngl.Context) -> dict[str, int]:
-    """Names alive per kind of GL object (the driver's own count), scanned to well past the
-    newest name of each kind."""
-    texture = ctx.texture((1, 1), 4)
-    program = ctx.program(vertex_shader=_VERTEX)
-    probes = (
-        texture,
-        ctx.buffer(reserve=4),
-        ctx.framebuffer([texture]),
-        ctx.vertex_array(program, []),
-        program,
-    )
-    limit = 2 * max(probe.glo for probe in probes) + 64
-    for probe in reversed(probes):
-        probe.release()
-    # A deleted program stays alive while it is the current one.
-    _GL.glUseProgram(0)
-    counts = {}
-    for kind in _KINDS:
-        is_kind = getattr(_GL, f"glIs{kind}")
-        is_kind.restype = ctypes.c_ubyte
-        counts[kind] = sum(1 for name in range(1, limit) if is_kind(name))
-    return counts
+from tests.gl_objects import live_gl_objects
 
 
 def material(ctx):
