@@ -142,18 +142,34 @@ def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | Non
     )
 
 
-def draw_fullscreen(ctx: moderngl.Context, program) -> None:
+def draw_fullscreen(ctx: moderngl.Context, program, *, blend: bool = False) -> None:
+    """Draw the fullscreen triangle with ``program`` (release it with :func:`release_program`).
+
+    The pass overwrites its target: blending is turned off first (a host's paint callback may
+    have left it on; Qt does), unless ``blend`` asks to keep the caller's blending.
+    """
+    if not blend:
+        ctx.disable(moderngl.BLEND)
     vao = _fullscreen_vao(ctx, program)
     vao.render(moderngl.TRIANGLES, vertices=3)
 
 
 def _fullscreen_vao(ctx, program):
-    cache = ctx.extra if isinstance(ctx.extra, dict) else {}
-    ctx.extra = cache
-    key = ("fullscreen_vao", program.glo)
-    if key not in cache:
-        cache[key] = ctx.vertex_array(program, [])
-    return cache[key]
+    # Kept on the program itself, never by GL name: a released program's name can be handed
+    # to a new program, which must not draw through the old one's vertex array.
+    if not isinstance(program.extra, moderngl.VertexArray):
+        program.extra = ctx.vertex_array(program, [])
+    return program.extra
+
+
+def release_program(program) -> None:
+    """Release a program drawn with :func:`draw_fullscreen` and the vertex array it drew with
+    (safe to call twice)."""
+    vao = program.extra
+    program.extra = None
+    if isinstance(vao, moderngl.VertexArray):
+        vao.release()
+    program.release()
 
 
 @contextmanager

@@ -40,7 +40,11 @@ def gl_ctx():
 
 @pytest.fixture
 def gl_clean(gl_ctx):
-    """The context, with no GL error pending before the test and none raised by it."""
+    """The context, current (a Qt test may have made its window's current since), with no GL
+    error pending before the test and none raised by it."""
+    from sand_editor.gl import standalone_context
+
+    assert standalone_context() is gl_ctx
     assert gl_ctx.error == "GL_NO_ERROR", "a GL error was left pending before the test"
     yield gl_ctx
     assert gl_ctx.error == "GL_NO_ERROR"

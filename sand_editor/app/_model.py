@@ -9,9 +9,6 @@ from PySide6.QtGui import QUndoCommand, QUndoStack
 
 from sand_editor.preset import FIELDS, Preset, PresetError, field_spec
 
-# Any value shared by all mergeable commands; mergeWith decides whether two really belong together.
-_MERGE_ID = 1
-
 
 def changed_paths(old: Preset, new: Preset) -> frozenset[str]:
     """Dotted paths of the fields whose values differ between two presets."""
@@ -69,8 +66,36 @@ class PresetModel(QObject):
         if preset != self._preset:
             merge_key = (path, self._gesture_serial) if gesture else None
             text = f"Change {field_spec(path).label}"
-            self.undo_stack.push(_ChangeCommand(self, self._preset, preset, text, merge_key))
+            self._push(_ChangeCommand(self, self._preset, preset, text, merge_key))
         return True
+
+    def _push(self, command: _ChangeCommand) -> None:
+        """Push ``command``, or fold it into the last step when both belong to one gesture.
+
+        The folding is done here, not by ``QUndoCommand.mergeWith``: Qt deletes a merged
+        command inside ``push``, before PySide hands the command's ownership to the stack, so
+        the stack would keep every merged command's Python object (and its two presets) for
+        as long as it lives.
+        """
+        stack = self.undo_stack
+        index = stack.index()
+        top = stack.command(index - 1) if index > 0 else None
+        if (
+            command.merge_key is not None
+            and isinstance(top, _ChangeCommand)
+            and top.merge_key == command.merge_key
+            and index == stack.count()  # nothing to redo: the last step is the newest
+            and index != stack.cleanIndex()  # a saved state stays one undo step away
+        ):
+            top.new = command.new
+            self._apply(top.new)
+            if top.new == top.old:
+                # A drag that ends where it started leaves nothing to undo; the stack drops
+                # an obsolete command when it is undone (a no-op here).
+                top.setObsolete(True)
+                stack.undo()
+            return
+        stack.push(command)
 
     def end_gesture(self) -> None:
         self._gesture_serial += 1
@@ -83,26 +108,17 @@ class PresetModel(QObject):
 
 
 class _ChangeCommand(QUndoCommand):
+    """One undo step from ``old`` to ``new``; steps of one gesture share a ``merge_key``."""
+
     def __init__(self, model: PresetModel, old: Preset, new: Preset, text: str, merge_key):
         super().__init__(text)
         self._model = model
-        self._old = old
-        self._new = new
-        self._merge_key = merge_key
-
-    def id(self) -> int:
-        return _MERGE_ID if self._merge_key is not None else -1
-
-    def mergeWith(self, other: QUndoCommand) -> bool:
-        if not isinstance(other, _ChangeCommand) or other._merge_key != self._merge_key:
-            return False
-        self._new = other._new
-        # A drag that ends where it started leaves nothing to undo.
-        self.setObsolete(self._new == self._old)
-        return True
+        self.old = old
+        self.new = new
+        self.merge_key = merge_key
 
     def redo(self) -> None:
-        self._model._apply(self._new)
+        self._model._apply(self.new)
 
     def undo(self) -> None:
-        self._model._apply(self._old)
+        self._model._apply(self.old)

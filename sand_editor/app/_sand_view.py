@@ -21,6 +21,7 @@ from sand_editor.gl import (
     draw_fullscreen,
     drawing_into,
     fullscreen_program,
+    release_program,
     release_standalone_context,
 )
 from sand_editor.preset import Preset
@@ -84,7 +85,7 @@ class GLResources:
             for name in list(self.targets):
                 self.release_target(name)
             if self.upscale is not None:
-                self.upscale.release()
+                release_program(self.upscale)
             self.release_error = self.ctx.error
             self.ctx.release()
         finally:
@@ -330,6 +331,9 @@ class SandView(QOpenGLWidget):
             if not self._moving:
                 timings = self._refine(camera, size) or timings
             self._show(screen, size)
+            # Qt's framebuffer stays bound after the paint, as on entry: Qt discards its
+            # depth and stencil after paintGL, an error on any other framebuffer.
+            screen.use()
             # The frame's whole cost, not only the CPU's share of it.
             self.ctx.finish()
         except Exception as error:

@@ -14,7 +14,7 @@ from typing import Any
 import moderngl
 import numpy as np
 
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
 
 _RGB = tuple[float, float, float]
 
@@ -147,6 +147,7 @@ class ReferencePort:
             for texture in textures:
                 texture.release()
         self._targets.clear()
+        release_program(self._program)
 
 
 def _fract(x: np.ndarray) -> np.ndarray:

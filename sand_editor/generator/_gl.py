@@ -9,7 +9,7 @@ import numpy as np
 
 from sand_editor.generator._textures import SandTextures
 from sand_editor.generator.noise import SHADER_DEFINES, NoiseConstants, grain_appearance
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
 
 
 @dataclass
@@ -98,3 +98,8 @@ class GLGenerator:
             self.ctx.viewport = (0, start, size, stop - start)
             draw_fullscreen(self.ctx, self.program)
         return target
+
+    def release(self) -> None:
+        """Release the program (a generator of its own; ``gl_generator``'s lives with its
+        context)."""
+        release_program(self.program)

@@ -14,7 +14,7 @@ import numpy as np
 from sand_editor.generator import SandTextures, check_size, gl_generator
 from sand_editor.generator._gl import GpuSandTextures
 from sand_editor.generator.noise import MAX_LAYERS, NoiseConstants, colour_thresholds
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
 from sand_editor.preset import Preset
 
 DEFAULT_TEXTURE_SIZE = 1024
@@ -267,9 +267,9 @@ class SandMaterial:
         if self._grains is not None:
             self._grains.release()
             self._grains = None
+        release_program(self._build)
         for obj in (
             self._build_fbo,
-            self._build,
             self.albedo,
             self.glint_moments,
             self.spread_moments,

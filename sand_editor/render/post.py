@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import moderngl
 
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program
+from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
 
 BLOOM_LEVELS = 5
 DEFAULT_BLOOM_STRENGTH = 0.04
@@ -69,7 +69,7 @@ class PostChain:
             for (texture, _), (_, larger) in zip(
                 reversed(self._levels[1:]), reversed(self._levels[:-1]), strict=True
             ):
-                self._pass(self._upsample, texture, larger, larger.size)
+                self._pass(self._upsample, texture, larger, larger.size, blend=True)
         finally:
             ctx.blend_func = moderngl.DEFAULT_BLENDING
             ctx.disable(moderngl.BLEND)
@@ -106,14 +106,14 @@ class PostChain:
         finally:
             target_fbo.viewport = saved_viewport
 
-    def _pass(self, program, source, framebuffer, size, offset=(0, 0)) -> None:
+    def _pass(self, program, source, framebuffer, size, offset=(0, 0), blend=False) -> None:
         source.use(location=0)
         set_uniform(program, "u_source", 0)
         set_uniform(program, "u_source_texel", (1.0 / source.size[0], 1.0 / source.size[1]))
         set_uniform(program, "u_viewport", (*(float(v) for v in offset), *(float(v) for v in size)))
         with drawing_into(self.ctx, framebuffer):
             self.ctx.viewport = (*offset, *size)
-            draw_fullscreen(self.ctx, program)
+            draw_fullscreen(self.ctx, program, blend=blend)
 
     def _release_targets(self) -> None:
         for obj in (self.scene_framebuffer, self.scene_texture, self.depth_texture):
@@ -129,7 +129,7 @@ class PostChain:
     def release(self) -> None:
         self._release_targets()
         for program in (self._downsample, self._upsample, self._resolve):
-            program.release()
+            release_program(program)
 
 
 def set_uniform(program, name: str, value) -> None:

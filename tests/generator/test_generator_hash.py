@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from sand_editor.generator.noise import NoiseConstants, glint_value, lowbias32, point_words
-from sand_editor.gl import fullscreen_program
+from sand_editor.gl import draw_fullscreen, fullscreen_program, release_program
 from sand_editor.preset import Preset
 from sand_editor.resources import shader_source
 
@@ -109,12 +109,12 @@ def test_glsl_lowbias32_equals_numpy(gl_ctx, base, monkeypatch):
         fbo.use()
         gl_ctx.viewport = (0, 0, 64, 64)
         program["u_base"].value = base
-        gl_ctx.vertex_array(program, []).render(moderngl.TRIANGLES, vertices=3)
+        draw_fullscreen(gl_ctx, program)
         table = np.frombuffer(texture.read(), dtype=np.uint32)
     finally:
         gl_ctx.detect_framebuffer(0).use()
         fbo.release()
         texture.release()
-        program.release()
+        release_program(program)
     keys = (np.uint64(base) + np.arange(table.size, dtype=np.uint64)).astype(np.uint32)
     np.testing.assert_array_equal(table, lowbias32(keys))

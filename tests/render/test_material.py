@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 import pytest
 
@@ -309,3 +310,30 @@ def test_sparkles_flicker_no_more_than_the_ground_truth_under_sub_pixel_motion(f
     # As much as the facets themselves, within this small frame's noise; far from a redraw of
     # every sparkle in every frame (2 on this scale).
     assert ours < 1.2 * truth, (ours, truth)
+
+
+def test_a_material_built_with_blending_left_on_is_the_one_built_with_it_off(gl_clean):
+    """A host's paint callback may leave blending on (Qt does): the build passes overwrite."""
+    preset = Preset().replace(**{"shading.glint_mu": 0.6})
+    reference = SandMaterial(gl_clean, 64)
+    updated = SandMaterial(gl_clean, 64)
+    made = None
+    try:
+        reference.update(preset)
+        updated.update(Preset())
+        gl_clean.enable(moderngl.BLEND)
+        gl_clean.blend_func = moderngl.DEFAULT_BLENDING
+        updated.update(preset)  # a glint selection change: the build pass alone
+        gl_clean.enable(moderngl.BLEND)
+        made = SandMaterial(gl_clean, 64)
+        made.update(preset)  # grains and build
+        for material in (made, updated):
+            np.testing.assert_array_equal(material.average_albedo, reference.average_albedo)
+            for name in ("albedo", "glint_moments", "spread_moments", "hole_moments"):
+                assert getattr(material, name).read() == getattr(reference, name).read(), name
+        assert reference.average_albedo.min() > 0.05  # the check sees a coloured tile
+    finally:
+        gl_clean.disable(moderngl.BLEND)
+        for material in (reference, updated, made):
+            if material is not None:
+                material.release()
