@@ -156,7 +156,7 @@ class FrameLoop:
             self.renderer.render(target, camera, sky_at(self.controls.hours), scene=scene)
             target.use()
             self.workbench.draw(self.ctx, camera, (0, 0, 64, 48), self.controls, "", [pose])
-            self.ctx.finish()
+            finish_without_gil()
         finally:
             # Nothing may stay bound to a released framebuffer (the next draw restores it).
             self.ctx.screen.use()
