@@ -7,6 +7,7 @@ import sys
 import threading
 
 import numpy as np
+import pytest
 
 from sand_editor.gl import (
     build_mipmaps_without_gil,
@@ -14,6 +15,7 @@ from sand_editor.gl import (
     finish_without_gil,
     read_without_gil,
     shader_text,
+    standalone_context,
 )
 
 HEAVY = """#version 330
@@ -28,6 +30,16 @@ void main() {
     colour = vec4(a, 0.0, 0.0, 1.0);
 }
 """
+
+
+@pytest.fixture
+def ctx(gl_ctx):
+    """The headless context, current again even where a window's context was made current
+    on this thread by an earlier test; no GL error pending before or after."""
+    assert standalone_context() is gl_ctx
+    assert gl_ctx.error == "GL_NO_ERROR"
+    yield gl_ctx
+    assert gl_ctx.error == "GL_NO_ERROR"
 
 
 def _program(ctx):
@@ -75,17 +87,16 @@ def _progress_of_another_thread_during(ctx, wait) -> int:
     return after - before
 
 
-def test_another_thread_runs_while_this_one_waits_for_a_long_draw(gl_clean):
-    assert _progress_of_another_thread_during(gl_clean, finish_without_gil) > 0
+def test_another_thread_runs_while_this_one_waits_for_a_long_draw(ctx):
+    assert _progress_of_another_thread_during(ctx, finish_without_gil) > 0
 
 
-def test_moderngl_finish_keeps_other_threads_waiting(gl_clean):
+def test_moderngl_finish_keeps_other_threads_waiting(ctx):
     """The reason for the helper: the same wait through moderngl holds the lock throughout."""
-    assert _progress_of_another_thread_during(gl_clean, gl_clean.finish) == 0
+    assert _progress_of_another_thread_during(ctx, ctx.finish) == 0
 
 
-def test_mipmaps_and_read_back_match_moderngl(gl_clean):
-    ctx = gl_clean
+def test_mipmaps_and_read_back_match_moderngl(ctx):
     rng = np.random.default_rng(7)
     pixels = rng.random((64, 64, 4), dtype=np.float32)
     ours, theirs = (ctx.texture((64, 64), 4, pixels.tobytes(), dtype="f4") for _ in range(2))
