@@ -8,6 +8,7 @@ import re
 import threading
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
+from functools import cache
 
 import moderngl
 
@@ -88,6 +89,57 @@ def _current_egl_context() -> int | None:
     return egl.eglGetCurrentContext() if egl is not None else None
 
 
+@cache
+def _gl_function(name: str, *argtypes):
+    """A GL entry point of whatever context is current on the calling thread.
+
+    libglvnd's libOpenGL dispatches to the current context whether EGL or GLX made it current;
+    libGL (which also carries GLX) does too and is the fallback where libOpenGL is missing.
+    """
+    for library in (ctypes.util.find_library("OpenGL"), ctypes.util.find_library("GL")):
+        if library:
+            break
+    else:
+        library = "libGL.so.1"
+    function = getattr(ctypes.CDLL(library), name)
+    function.restype = None
+    function.argtypes = list(argtypes)
+    return function
+
+
+def finish_without_gil() -> None:
+    """``glFinish`` on this thread's current context, letting other Python threads run while
+    it waits.
+
+    moderngl keeps Python's lock while it waits on GL (``finish``, ``read``,
+    ``build_mipmaps``); a call through ctypes releases it. On a CPU rasterizer the waiting is
+    the drawing itself, so a thread drawing frames and one making new grains then draw at the
+    same time instead of taking turns.
+    """
+    _gl_function("glFinish")()
+
+
+def build_mipmaps_without_gil(texture: moderngl.Texture) -> None:
+    """Rebuild the mip levels of a 2D texture from its base level, letting other Python
+    threads run meanwhile (``Texture.build_mipmaps`` waits for each level holding the lock).
+
+    The texture must have had ``build_mipmaps`` called once (which sets its filter and the
+    levels moderngl lets ``read`` address); the texture stays bound to unit 0.
+    """
+    finish_without_gil()  # the draws into the base level
+    texture.use(location=0)
+    _gl_function("glGenerateMipmap", ctypes.c_uint)(_GL_TEXTURE_2D)
+    finish_without_gil()
+
+
+def read_without_gil(texture: moderngl.Texture, **kwargs) -> bytes:
+    """``texture.read(**kwargs)``, once the draws into it are done without holding Python's
+    lock: only the copy itself then holds it."""
+    finish_without_gil()
+    return texture.read(**kwargs)
+
+
+_GL_TEXTURE_2D = 0x0DE1
 _INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([^"]+)"[ \t]*$', re.M)
 
 

@@ -2,15 +2,13 @@
 
 One generation per edit: the 2D preview and the 3D view both take the tiles this produces. The
 worker draws in its own headless EGL context (one per thread), so the GUI thread, which owns the
-3D view's GLX context, never has to switch contexts, and never waits for a whole generation: the
-worker holds the interpreter only for one band of rows or one read-back at a time.
+3D view's GLX context, never has to switch contexts, and never waits for a generation: the worker
+waits for its draws without holding the interpreter, and holds it only to queue a band of rows
+or to copy a read-back.
 """
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
-import functools
 import threading
 import time
 from collections import OrderedDict
@@ -20,20 +18,13 @@ from PySide6.QtCore import QObject, QTimer, Signal
 
 from sand_editor.generator import SandTextures, generate, gl_generator
 from sand_editor.generator.noise import NoiseConstants
+from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset
 
 DEBOUNCE_MS = 20
 FIRST_SIZE = 128
 BAND_ROWS = 128
 CACHE_TILES = 3
-
-
-@functools.cache
-def _gl_flush():
-    """glFlush of the calling thread's current context: starts the queued draws without
-    waiting for them (moderngl offers only finish(), which waits)."""
-    library = ctypes.util.find_library("OpenGL") or ctypes.util.find_library("GL")
-    return ctypes.CDLL(library or "libGL.so.1").glFlush
 
 
 class TextureCache:
@@ -113,7 +104,6 @@ class Regenerator(QObject):
         self._thread: threading.Thread | None = None
         self._debounce = QTimer(self, singleShot=True, interval=DEBOUNCE_MS)
         self._debounce.timeout.connect(self._start)
-        self._band_seconds = 0.01
         self._delivered.connect(self._on_delivered)
         self._counted.connect(self._on_counted)
         self._errored.connect(self._on_error)
@@ -243,9 +233,9 @@ class Regenerator(QObject):
             tiles.close()  # releases the GPU target of a generation cut short, now
 
     def _tiles(self, job: _Job, ctx) -> Iterator[SandTextures]:
-        """The quick tile, then the full one drawn in bands. Between a band's draw and its
-        end the worker sleeps, which lets the GUI thread run Python: waiting in ``finish()``
-        instead would hold the interpreter for the whole band."""
+        """The quick tile, then the full one drawn in bands. The worker waits for each band
+        without holding the interpreter, so the GUI thread runs Python while the band is drawn;
+        a newer request is noticed at the next band."""
         generator = gl_generator(ctx)
         constants = NoiseConstants.from_generation(job.generation)
         if FIRST_SIZE < job.size:
@@ -257,17 +247,7 @@ class Regenerator(QObject):
                     return
                 stop = min(job.size, start + BAND_ROWS)
                 generator.render(constants, job.size, target, rows=(start, stop))
-                _gl_flush()()
-                time.sleep(self._band_seconds * (stop - start) / BAND_ROWS)
-                waited = time.perf_counter()
-                ctx.finish()
-                waited = time.perf_counter() - waited
-                # Sleep longer next time when the band was not done yet, a little less when
-                # it was: the sleep follows what a band costs now.
-                if waited > 0.002:
-                    self._band_seconds += waited
-                else:
-                    self._band_seconds *= 0.9
+                finish_without_gil()
             yield target.read(constants)
         finally:
             target.release()

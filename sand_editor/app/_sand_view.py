@@ -20,6 +20,7 @@ from sand_editor.gl import (
     REQUIRED_GL_VERSION,
     draw_fullscreen,
     drawing_into,
+    finish_without_gil,
     fullscreen_program,
     release_program,
     release_standalone_context,
@@ -334,8 +335,9 @@ class SandView(QOpenGLWidget):
             # Qt's framebuffer stays bound after the paint, as on entry: Qt discards its
             # depth and stencil after paintGL, an error on any other framebuffer.
             screen.use()
-            # The frame's whole cost, not only the CPU's share of it.
-            self.ctx.finish()
+            # The frame's whole cost, not only the CPU's share of it; the generator's thread
+            # queues its next band meanwhile.
+            finish_without_gil()
         except Exception as error:
             self._fail(f"3D view: {error}")
             return
@@ -377,7 +379,7 @@ class SandView(QOpenGLWidget):
         low = (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
         start = time.perf_counter()
         timings = self._render(self.gl.target("moving", *low), camera, (0, 0, *low))
-        self.ctx.finish()
+        finish_without_gil()
         self._pixel_ms = (time.perf_counter() - start) * 1e3 / (low[0] * low[1])
         timings.update(scale=scale, refined=0.0)
         return timings
@@ -400,7 +402,7 @@ class SandView(QOpenGLWidget):
         band_camera = _band_camera(camera, first, first + rows, height)
         start = time.perf_counter()
         timings = self._render(full, band_camera, (0, first, width, rows))
-        self.ctx.finish()
+        finish_without_gil()
         self._pixel_ms = (time.perf_counter() - start) * 1e3 / (width * rows)
         self._refined_rows = first + rows
         self._refine_ms += (time.perf_counter() - start) * 1e3

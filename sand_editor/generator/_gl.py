@@ -9,7 +9,13 @@ import numpy as np
 
 from sand_editor.generator._textures import SandTextures
 from sand_editor.generator.noise import SHADER_DEFINES, NoiseConstants, grain_appearance
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
+from sand_editor.gl import (
+    draw_fullscreen,
+    drawing_into,
+    fullscreen_program,
+    read_without_gil,
+    release_program,
+)
 
 
 @dataclass
@@ -28,7 +34,8 @@ class GpuSandTextures:
     def read(self, constants: NoiseConstants) -> SandTextures:
         """Copy the textures to numpy arrays (a GPU → CPU read-back) and colour the grains."""
         n = self.size
-        nh = np.frombuffer(self.normal_height.read(), dtype=np.float32).reshape(n, n, 4)
+        # The wait for the draws leaves Python free for other threads; the copies hold it.
+        nh = np.frombuffer(read_without_gil(self.normal_height), dtype=np.float32).reshape(n, n, 4)
         lg = np.frombuffer(self.layer_grain.read(), dtype=np.uint32).reshape(n, n, 2)
         layer = lg[..., 0].astype(np.int8) - np.int8(1)
         grain = lg[..., 1].copy()

@@ -14,7 +14,14 @@ import numpy as np
 from sand_editor.generator import SandTextures, check_size, gl_generator
 from sand_editor.generator._gl import GpuSandTextures
 from sand_editor.generator.noise import MAX_LAYERS, NoiseConstants, colour_thresholds
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
+from sand_editor.gl import (
+    build_mipmaps_without_gil,
+    draw_fullscreen,
+    drawing_into,
+    fullscreen_program,
+    read_without_gil,
+    release_program,
+)
 from sand_editor.preset import Preset
 
 DEFAULT_TEXTURE_SIZE = 1024
@@ -119,9 +126,10 @@ class SandMaterial:
             self._filterable(ctx.texture((size, size), 4, dtype="f4")) for _ in range(2)
         )
         self.hole_moments = self._filterable(ctx.texture((size, size), 1, dtype="f4"))
-        self._build_fbo = ctx.framebuffer(
-            [self.albedo, self.glint_moments, self.spread_moments, self.hole_moments]
-        )
+        self._built = (self.albedo, self.glint_moments, self.spread_moments, self.hole_moments)
+        for texture in self._built:
+            texture.build_mipmaps()  # the levels, made once; each build refills them
+        self._build_fbo = ctx.framebuffer(list(self._built))
         self.ripple_steep = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 14, 3, 0.9, seed=1))
         self.ripple_shallow = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 9, 2, 0.5, seed=2))
         self.detail = self._map(detail_slopes(RIPPLE_MAP_SIZE, seed=3))
@@ -210,11 +218,14 @@ class SandMaterial:
         with drawing_into(self.ctx, self._build_fbo):
             self.ctx.viewport = (0, 0, self.texture_size, self.texture_size)
             draw_fullscreen(self.ctx, program)
-        for texture in (self.albedo, self.glint_moments, self.spread_moments, self.hole_moments):
-            texture.build_mipmaps()
+        # Waiting for the draws without Python's lock: a thread building a material while
+        # another draws frames (the VR viewer) lets the frames go on meanwhile.
+        for texture in self._built:
+            build_mipmaps_without_gil(texture)
         # The last mip level is the average of the whole tile: the far-field colour.
         top = int(self.max_lod)
-        texel = np.frombuffer(self.albedo.read(level=top), dtype=np.float16).astype(np.float32)
+        texel = np.frombuffer(read_without_gil(self.albedo, level=top), dtype=np.float16)
+        texel = texel.astype(np.float32)
         self.average_albedo = texel[:3].copy()
 
     @property

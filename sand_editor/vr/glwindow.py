@@ -4,10 +4,7 @@ new grain textures while frames keep being drawn."""
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import os
-from functools import cache
 
 import moderngl
 
@@ -74,20 +71,3 @@ class GLWindows:
                 glfw.destroy_window(window)
         self.window = self.worker = None
         glfw.terminate()
-
-
-@cache
-def _gl_finish():
-    library = ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
-    function = library.glFinish
-    function.restype = None
-    function.argtypes = []
-    return function
-
-
-def finish_without_gil() -> None:
-    """``glFinish`` on this thread's current context, letting other Python threads run while
-    it waits (ctypes releases the GIL; moderngl's ``finish`` does not). On a CPU rasterizer
-    the waiting is the drawing itself: the frame loop and the thread making new grains then
-    draw at the same time instead of taking turns."""
-    _gl_finish()()

@@ -15,19 +15,9 @@ from dataclasses import dataclass
 
 import moderngl
 
+from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
-from sand_editor.vr.glwindow import finish_without_gil
-
-
-class _OffLoopMaterial(SandMaterial):
-    """A material whose update lets the frame loop run while the new grains are drawn: the
-    build step reads a texture back (a wait that holds Python's lock), so the grains queued
-    before it are finished first with the lock released."""
-
-    def _build_textures(self, preset: Preset) -> None:
-        finish_without_gil()
-        super()._build_textures(preset)
 
 
 @dataclass
@@ -120,7 +110,7 @@ class GrainWorker:
             # Both materials are made now, before the first frame: making one compiles its
             # programs and computes its ripple maps, half a second that would stall frames.
             for _ in range(2):
-                materials.append(_OffLoopMaterial(ctx, self._texture_size))
+                materials.append(SandMaterial(ctx, self._texture_size))
             self._spare.extend(materials)
         except BaseException as exc:
             self._start_error = exc
@@ -139,7 +129,7 @@ class GrainWorker:
                 if self._spare:
                     material = self._spare.pop()
                 else:  # both taken: the one on screen comes back with the next swap
-                    material = _OffLoopMaterial(ctx, self._texture_size)
+                    material = SandMaterial(ctx, self._texture_size)
                     materials.append(material)
                 try:
                     material.update(preset)

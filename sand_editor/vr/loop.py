@@ -16,6 +16,7 @@ from typing import Protocol
 
 import numpy as np
 
+from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset, PresetError
 from sand_editor.render.modes import MODES
 from sand_editor.render.renderer import SandRenderer
@@ -31,7 +32,6 @@ from sand_editor.vr.actions import (
     commands_from_input,
 )
 from sand_editor.vr.errors import NoHeadsetError
-from sand_editor.vr.glwindow import finish_without_gil
 from sand_editor.vr.grains import GrainWorker
 from sand_editor.vr.link import LinkError, check_time_fields
 from sand_editor.vr.workbench import Workbench
@@ -156,7 +156,7 @@ class FrameLoop:
             self.renderer.render(target, camera, sky_at(self.controls.hours), scene=scene)
             target.use()
             self.workbench.draw(self.ctx, camera, (0, 0, 64, 48), self.controls, "", [pose])
-            self.ctx.finish()
+            finish_without_gil()
         finally:
             # Nothing may stay bound to a released framebuffer (the next draw restores it).
             self.ctx.screen.use()
