@@ -8,6 +8,8 @@ program that includes ``shaders/sand_surface.glsl``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import moderngl
 import numpy as np
 
@@ -25,6 +27,7 @@ from sand_editor.gl import (
 from sand_editor.preset import Preset
 
 DEFAULT_TEXTURE_SIZE = 1024
+GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
 RIPPLE_MAP_SIZE = 256
 # Glint filters of shaders/sand_surface.glsl; all but "ours" exist only in the probe's program
 # variant (SAND_PROBE), for the benchmark: "expected" is the footprint moments' expected value
@@ -151,15 +154,29 @@ class SandMaterial:
     def max_lod(self) -> float:
         return float(np.log2(self.texture_size))
 
-    def update(self, preset: Preset) -> None:
-        """Make the GPU textures match ``preset``, doing only the work its changes need."""
+    def update(self, preset: Preset, between_bands: Callable[[], None] | None = None) -> None:
+        """Make the GPU textures match ``preset``, doing only the work its changes need.
+
+        With ``between_bands``, new grains are drawn in bands of ``GENERATION_BAND_ROWS`` rows
+        and it is called after each: a thread making grains beside one that must keep drawing
+        frames waits there, so the two share the GPU (or the CPU rasterizer's cores) in turns.
+        """
         generation = preset.generation
         if self._grains is None or self.preset is None or self.preset.generation != generation:
             constants = NoiseConstants.from_generation(generation)
             generator = gl_generator(self.ctx)
             if self._grains is not None:
                 self._grains.release()
-            self._grains = generator.render(constants, self.texture_size)
+                self._grains = None
+            size = self.texture_size
+            if between_bands is None:
+                self._grains = generator.render(constants, size)
+            else:
+                self._grains = generator.allocate(size)
+                for start in range(0, size, GENERATION_BAND_ROWS):
+                    rows = (start, min(start + GENERATION_BAND_ROWS, size))
+                    generator.render(constants, size, target=self._grains, rows=rows)
+                    between_bands()
             self._built_for = None
         build_key = (generation, preset.shading.glint_mu, preset.shading.glint_sigma)
         if self._built_for != build_key:

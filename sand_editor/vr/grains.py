@@ -20,6 +20,14 @@ from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
 
 
+def _cede_to_the_frame_loop() -> None:
+    """Wait for the band just drawn, then leave the GPU (on a CPU rasterizer: the cores) to the
+    frame loop for as long again: new grains take twice as long, and frames keep coming."""
+    start = time.perf_counter()
+    finish_without_gil()
+    time.sleep(time.perf_counter() - start)
+
+
 @dataclass
 class ReadyMaterial:
     """A material brought up to date for ``preset`` (request ``seq``), received at
@@ -132,7 +140,7 @@ class GrainWorker:
                     material = SandMaterial(ctx, self._texture_size)
                     materials.append(material)
                 try:
-                    material.update(preset)
+                    material.update(preset, between_bands=_cede_to_the_frame_loop)
                     # Everything written must be visible to the drawing context before use.
                     finish_without_gil()
                 except Exception as exc:  # a preset the generator rejects keeps the old one

@@ -337,3 +337,23 @@ def test_a_material_built_with_blending_left_on_is_the_one_built_with_it_off(gl_
         for material in (reference, updated, made):
             if material is not None:
                 material.release()
+
+
+def test_paced_generation_draws_the_same_grains_in_bands(gl_ctx):
+    from sand_editor.render.material import GENERATION_BAND_ROWS
+
+    preset = Preset()
+    whole, paced = SandMaterial(gl_ctx, texture_size=256), SandMaterial(gl_ctx, texture_size=256)
+    pauses = []
+    try:
+        whole.update(preset)
+        paced.update(preset, between_bands=lambda: pauses.append(1))
+        assert len(pauses) == 256 // GENERATION_BAND_ROWS
+        for name in ("albedo", "glint_moments", "spread_moments", "hole_moments"):
+            assert getattr(paced, name).read() == getattr(whole, name).read(), name
+        # Shading-only edits draw no grains, so they do not pause.
+        paced.update(preset.replace(**{"shading.sss": 0.5}), between_bands=lambda: pauses.append(1))
+        assert len(pauses) == 256 // GENERATION_BAND_ROWS
+    finally:
+        whole.release()
+        paced.release()
