@@ -19,7 +19,6 @@ from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
 
-
 # After each band of new grains, the GPU (on a CPU rasterizer: the cores) is left to the frame
 # loop for this share of the band's time: frames keep coming, and grains take 1.5 times as long.
 CEDE_SHARE = 0.5
