@@ -236,7 +236,9 @@ def drawing_into(ctx: moderngl.Context, framebuffer: moderngl.Framebuffer) -> It
     try:
         yield
     finally:
-        if isinstance(previous, moderngl.Framebuffer):
+        # A framebuffer released while bound stays ``ctx.fbo``, with an invalid handle.
+        released = isinstance(getattr(previous, "mglo", None), moderngl.InvalidObject)
+        if isinstance(previous, moderngl.Framebuffer) and not released:
             previous.use()
         else:  # nothing bound yet (a fresh headless context), or released by its owner
             ctx.detect_framebuffer(0).use()

@@ -83,3 +83,23 @@ def test_a_new_program_draws_with_its_own_vertex_array(gl_clean):
     finally:
         framebuffer.release()
         texture.release()
+
+
+def test_drawing_into_after_the_bound_framebuffer_was_released(gl_clean):
+    # A framebuffer released while bound stays the context's current one, with an invalid
+    # handle: drawing into another must not try to bind it again afterwards.
+    # (Made first: moderngl rebinds the current framebuffer after making one.)
+    texture = gl_clean.texture((4, 4), 4)
+    framebuffer = gl_clean.framebuffer([texture])
+    stale_texture = gl_clean.texture((4, 4), 4)
+    stale = gl_clean.framebuffer([stale_texture])
+    stale.use()
+    stale.release()
+    stale_texture.release()
+    try:
+        with drawing_into(gl_clean, framebuffer):
+            framebuffer.clear(1.0, 0.0, 0.0, 1.0)
+        assert texture.read()[:4] == b"\xff\x00\x00\xff"
+    finally:
+        framebuffer.release()
+        texture.release()
