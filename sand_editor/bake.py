@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
+from sand_editor.files import write_folder
 from sand_editor.generator import SandTextures, generate, generate_progressive
 from sand_editor.generator.noise import linear_to_srgb
 from sand_editor.preset import Preset
@@ -58,30 +57,6 @@ def encode_images(textures: SandTextures) -> dict[str, Image.Image]:
     }
 
 
-def _write_all(out_dir: Path, files: dict[str, bytes]) -> None:
-    """Write every file to a temporary name first, then rename them all into place.
-
-    A failure while writing (a full disk, say) leaves the previous bake untouched and no
-    temporary files; only the renames, which do not fail for lack of space, touch old files.
-    """
-    written: list[tuple[str, Path]] = []
-    try:
-        for name, data in files.items():
-            handle = tempfile.NamedTemporaryFile(dir=out_dir, prefix=f".{name}.", delete=False)
-            written.append((handle.name, out_dir / name))
-            with handle:
-                handle.write(data)
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.chmod(handle.name, 0o644)  # temporary files start private; a bake is to share
-    except BaseException:
-        for temporary, _ in written:
-            Path(temporary).unlink(missing_ok=True)
-        raise
-    for temporary, final in written:
-        os.replace(temporary, final)
-
-
 def material_record(preset: Preset, textures: SandTextures) -> dict:
     average = textures.average_albedo.astype(np.float64)
     srgb = _to_8bit(linear_to_srgb(average))
@@ -101,8 +76,9 @@ def material_record(preset: Preset, textures: SandTextures) -> dict:
 def bake(preset: Preset, size: int, out_dir: Path, backend: str = "gl") -> dict:
     """Generate and write the baked files; returns the material record.
 
-    Everything is encoded in memory and written to temporary names before any file is replaced;
-    ``material.json`` is renamed last, so a folder with a material.json holds a complete bake.
+    Everything is encoded in memory and written as one unit (``sand_editor.files.write_folder``):
+    temporary names first, then renamed into place under a lock on the folder, ``material.json``
+    last, so two bakes into one folder never mix and a failed one leaves the old files.
     """
     if backend == "gl":
         steps = BakeSteps(preset, size, out_dir)
@@ -111,8 +87,7 @@ def bake(preset: Preset, size: int, out_dir: Path, backend: str = "gl") -> dict:
         return steps.record
     textures = generate(preset, size, backend=backend)
     files = _encode_files(preset, textures)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    _write_all(out_dir, files)
+    write_folder(out_dir, files)
     return json.loads(files["material.json"])
 
 
@@ -164,7 +139,6 @@ class BakeSteps:
         yield 0.6, "Encoding the images"
         files = _encode_files(preset, textures)
         yield 0.95, f"Writing {len(files)} files"
-        out_dir.mkdir(parents=True, exist_ok=True)
-        _write_all(out_dir, files)
+        write_folder(out_dir, files)
         self.record = json.loads(files["material.json"])
         yield 1.0, "Done"

@@ -108,6 +108,7 @@ def _day_speed(text: str) -> float:
 
 
 def _cmd_vr(args) -> int:
+    from sand_editor.files import check_regular_target
     from sand_editor.render.sky import parse_time
     from sand_editor.vr.loop import ViewerOptions
     from sand_editor.vr.viewer import run_viewer
@@ -115,6 +116,9 @@ def _cmd_vr(args) -> int:
     path = preset_path(args.preset)
     if args.frames is not None and args.frames < 1:
         raise CommandError(f"--frames must be at least 1, got {args.frames}")
+    for output in (args.report, args.screenshot):
+        if output:
+            check_regular_target(output)  # refused now, not after the session
     options = ViewerOptions(
         preset=Preset.load(path),
         preset_label=path.stem,

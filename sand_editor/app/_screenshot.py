@@ -10,6 +10,7 @@ from PySide6.QtCore import QObject, QTimer
 from PySide6.QtWidgets import QApplication
 
 from sand_editor.app._preview import CHANNELS, TAB_3D
+from sand_editor.files import OutputError
 
 TABS = {name.lower(): index for index, name in enumerate((*CHANNELS, TAB_3D))}
 POLL_MS = 50
@@ -58,8 +59,10 @@ class ScreenshotWhenReady(QObject):
         self._ready_polls = self._ready_polls + 1 if ready else 0
         if self._ready_polls < 2:
             return
-        if not self.window.save_screenshot(self.path):
-            return self._finish(1, f"cannot write {self.path}")
+        try:
+            self.window.write_screenshot(self.path)
+        except OutputError as error:
+            return self._finish(1, str(error))
         print(f"saved {self.path}")
         self._finish(0, None)
 

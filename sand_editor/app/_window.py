@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from PySide6.QtCore import QSettings, Qt
+from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QSettings, Qt
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import (
     QFileDialog,
@@ -24,6 +24,7 @@ from sand_editor.app._preview import CHANNELS, TAB_3D, PreviewPanel
 from sand_editor.app._regenerator import Regenerator
 from sand_editor.app._settings import EditorSettings
 from sand_editor.app._vr_controls import VrControls
+from sand_editor.files import OutputError, write_atomic
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir
@@ -399,20 +400,22 @@ class EditorWindow(QMainWindow):
         chosen, _ = QFileDialog.getSaveFileName(self, "Save screenshot", start, _IMAGE_FILTER)
         if chosen:
             path = Path(chosen) if Path(chosen).suffix else Path(chosen).with_suffix(".png")
-            if self.save_screenshot(path):
-                self.statusBar().showMessage(f"Saved {path}", STATUS_MESSAGE_MS)
+            try:
+                self.write_screenshot(path)
+            except OutputError as error:
+                QMessageBox.critical(self, "Cannot save screenshot", str(error))
             else:
-                QMessageBox.critical(self, "Cannot save screenshot", f"Cannot write {path}.")
+                self.statusBar().showMessage(f"Saved {path}", STATUS_MESSAGE_MS)
 
-    def save_screenshot(self, path: str | Path) -> bool:
-        """Write the window as shown to a PNG file (atomically); False if it cannot be written."""
-        path = Path(path)
-        temporary = path.with_name(f".{path.name}.partial")
-        if not self.grab().save(str(temporary), "PNG"):
-            temporary.unlink(missing_ok=True)
-            return False
-        temporary.replace(path)
-        return True
+    def write_screenshot(self, path: str | Path) -> None:
+        """Write the window as shown to a PNG file (atomically); OutputError names the file."""
+        data = QByteArray()
+        buffer = QBuffer(data)
+        buffer.open(QIODevice.OpenModeFlag.WriteOnly)
+        if not self.grab().save(buffer, "PNG"):
+            raise OutputError(path, "cannot encode the window as PNG")
+        buffer.close()
+        write_atomic(path, data.data())
 
     # -- settings --------------------------------------------------------------------------------
 

@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import stat
-import tempfile
+from collections.abc import Callable
 from typing import Any
 
+from sand_editor.files import OutputError, write_atomic
 from sand_editor.preset._errors import PresetError
 
 MAX_FILE_BYTES = 1 << 20
+MAX_NUMBER_CHARS = 100  # every value a preset allows is written in far fewer
 _LIMIT_TEXT = f"presets are limited to 1 MiB ({MAX_FILE_BYTES} bytes)"
 
 
@@ -27,6 +28,40 @@ def _refuse_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
             raise PresetError(f"the key {key!r} appears twice in one object; allowed once")
         result[key] = value
     return result
+
+
+def _bounded(convert: Callable[[str], Any]) -> Callable[[str], Any]:
+    # Python refuses to convert integers of over 4300 digits (ValueError); refuse far sooner.
+    def parse(text: str) -> Any:
+        if len(text) > MAX_NUMBER_CHARS:
+            raise PresetError(
+                f"a number of {len(text)} characters; allowed at most {MAX_NUMBER_CHARS}"
+            )
+        return convert(text)
+
+    return parse
+
+
+_integer, _float = _bounded(int), _bounded(float)
+
+
+def parse_json(text: str) -> Any:
+    """Strict JSON of a preset: duplicate keys refused, numbers bounded, NaN and Infinity kept
+    for the field checks to refuse by name. Raises PresetError (without a file name)."""
+    try:
+        return json.loads(
+            text,
+            parse_constant=_constant,
+            parse_int=_integer,
+            parse_float=_float,
+            object_pairs_hook=_refuse_duplicates,
+        )
+    except json.JSONDecodeError as error:
+        raise PresetError(
+            f"not valid JSON: {error.msg} at line {error.lineno}, column {error.colno}"
+        ) from None
+    except RecursionError:
+        raise PresetError("not valid JSON: nested too deeply") from None
 
 
 def _constant(name: str) -> float:
@@ -49,6 +84,8 @@ def read_json(path: str | os.PathLike[str]) -> Any:
         raise PresetError("no such file", source=source) from None
     except OSError as error:
         raise PresetError(f"cannot read: {_reason(error)}", source=source) from None
+    except ValueError:  # a NUL character: no file can have that name
+        raise PresetError("no such file: the name has a NUL character", source=source) from None
     if stat.S_ISDIR(info.st_mode):
         raise PresetError("is a folder; allowed a preset file", source=source)
     if not stat.S_ISREG(info.st_mode):
@@ -73,14 +110,7 @@ def read_json(path: str | os.PathLike[str]) -> Any:
             source=source,
         ) from None
     try:
-        return json.loads(text, parse_constant=_constant, object_pairs_hook=_refuse_duplicates)
-    except json.JSONDecodeError as error:
-        raise PresetError(
-            f"not valid JSON: {error.msg} at line {error.lineno}, column {error.colno}",
-            source=source,
-        ) from None
-    except RecursionError:
-        raise PresetError("not valid JSON: nested too deeply", source=source) from None
+        return parse_json(text)
     except PresetError as error:
         raise error.located(source) from None
 
@@ -106,11 +136,8 @@ def _format(value: Any, indent: str) -> str:
 
 
 def write_json_atomic(path: str | os.PathLike[str], document: Any) -> None:
-    """Write JSON to ``path`` so that readers see the old file or the new one, never a mix.
-
-    The text goes to a temporary file in the same folder, is flushed to disk, and then
-    replaces the target in one rename. On failure the temporary file is removed and the
-    target is untouched.
+    """Write JSON to ``path`` so that readers see the old file or the new one, never a mix
+    (:func:`sand_editor.files.write_atomic`).
 
     Raises
     ------
@@ -118,47 +145,12 @@ def write_json_atomic(path: str | os.PathLike[str], document: Any) -> None:
         For any failure, naming the file.
     """
     source = os.fspath(path)
-    # Through a symlink, replace the file it points to rather than the link.
-    target = os.path.realpath(source)
-    folder = os.path.dirname(target)
-    temp_name: str | None = None
     try:
-        payload = to_json_text(document)
-        with tempfile.NamedTemporaryFile(
-            "wb", dir=folder, prefix=f".{os.path.basename(target)}.", suffix=".tmp", delete=False
-        ) as stream:
-            temp_name = stream.name
-            stream.write(payload.encode("utf-8"))
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.chmod(temp_name, _mode_for(target))
-        os.replace(temp_name, target)
-        temp_name = None
-    except OSError as error:
-        reason = _reason(error) if os.path.isdir(folder) else f"the folder {folder} does not exist"
-        raise PresetError(f"cannot save: {reason}", source=source) from error
-    except Exception as error:
-        raise PresetError(f"cannot save: {error}", source=source) from error
-    finally:
-        if temp_name is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(temp_name)
-    _sync_folder(folder)
-
-
-def _mode_for(target: str) -> int:
-    # Keep the permissions of the file being replaced; temporary files start out private.
+        payload = to_json_text(document).encode("utf-8")
+    except (TypeError, ValueError) as error:
+        raise PresetError(f"cannot save: {error}", source=source) from None
     try:
-        return stat.S_IMODE(os.stat(target).st_mode)
-    except OSError:
-        return 0o644
-
-
-def _sync_folder(folder: str) -> None:
-    # Makes the rename itself durable on POSIX; folders cannot be opened this way on Windows.
-    with contextlib.suppress(OSError, AttributeError):
-        descriptor = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(descriptor)
-        finally:
-            os.close(descriptor)
+        write_atomic(source, payload)
+    except OutputError as error:
+        reason = error.reason if error.cause is None else f"cannot save: {error.cause}"
+        raise PresetError(reason, source=source) from None

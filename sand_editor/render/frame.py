@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import io
 import math
-import os
-import tempfile
 import time
 from pathlib import Path
 
 from PIL import Image
 
+from sand_editor.files import check_regular_target, write_atomic
 from sand_editor.gl import standalone_context
 from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
@@ -46,11 +45,24 @@ def render_frame(
     check_mode(mode)
     check_view(distance_m, pitch_deg)
     sky = sky_at(parse_time(time_text))
+    check_regular_target(out)  # before the work, not after it
     ctx = standalone_context()
     material = SandMaterial(ctx)
-    material.update(preset)
     renderer = SandRenderer(ctx)
-    renderer.set_material(material)
+    try:
+        material.update(preset)
+        renderer.set_material(material)
+        pixels, elapsed_ms = _draw(renderer, size, distance_m, pitch_deg, sky, mode, sphere)
+    finally:
+        renderer.release()
+        material.release()
+    buffer = io.BytesIO()
+    Image.fromarray(pixels).save(buffer, format="PNG")
+    write_atomic(out, buffer.getvalue(), make_folder=True)
+    return {"ms": elapsed_ms}
+
+
+def _draw(renderer, size, distance_m, pitch_deg, sky, mode, sphere):
     width, height = size
     terrain = renderer.terrain
     camera = camera_at_distance(
@@ -61,19 +73,4 @@ def render_frame(
     )
     start = time.perf_counter()
     pixels = renderer.render_to_array(width, height, camera, sky, mode, show_sphere=sphere)
-    elapsed_ms = (time.perf_counter() - start) * 1e3
-    buffer = io.BytesIO()
-    Image.fromarray(pixels).save(buffer, format="PNG")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    handle = tempfile.NamedTemporaryFile(dir=out.parent, prefix=f".{out.name}.", delete=False)
-    try:
-        with handle:
-            handle.write(buffer.getvalue())
-        os.chmod(handle.name, 0o644)
-        os.replace(handle.name, out)
-    except BaseException:
-        Path(handle.name).unlink(missing_ok=True)
-        raise
-    renderer.release()
-    material.release()
-    return {"ms": elapsed_ms}
+    return pixels, (time.perf_counter() - start) * 1e3

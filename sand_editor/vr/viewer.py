@@ -4,16 +4,22 @@ the report, and end with an exit status from ``sand_editor.vr.link``."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import sys
-import tempfile
 import traceback
 from contextlib import contextmanager
 from pathlib import Path
 
+from sand_editor.files import OutputError, write_atomic
 from sand_editor.vr.errors import GraphicsError, NoHeadsetError, ViewerError
-from sand_editor.vr.link import EXIT_GRAPHICS, EXIT_INTERRUPTED, EXIT_OK, NullLink, StdioLink
+from sand_editor.vr.link import (
+    EXIT_BAD_INPUT,
+    EXIT_GRAPHICS,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    NullLink,
+    StdioLink,
+)
 from sand_editor.vr.loop import FrameLoop, ViewerOptions
 
 
@@ -66,7 +72,11 @@ def run_viewer(
         if backend is not None:
             backend.close()
     if report_path is not None:
-        write_report(report, report_path)
+        try:
+            write_report(report, report_path)
+        except OutputError as exc:
+            print(f"sand-editor vr: error: {exc}", file=sys.stderr)
+            status = status or EXIT_BAD_INPUT
     link.send(type="bye", status=status)
     return status
 
@@ -127,17 +137,5 @@ def _xr_backend(render_scale: float):
 
 def write_report(report: dict, path: Path) -> None:
     """JSON, written through a temporary file renamed into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle = tempfile.NamedTemporaryFile(
-        "w", dir=path.parent, prefix=f".{path.name}.", suffix=".tmp", delete=False
-    )
-    try:
-        with handle:
-            json.dump(report, handle, indent=2)
-            handle.write("\n")
-        os.chmod(handle.name, 0o644)
-        os.replace(handle.name, path)
-    except BaseException:
-        Path(handle.name).unlink(missing_ok=True)
-        raise
+    text = json.dumps(report, indent=2) + "\n"
+    write_atomic(path, text.encode(), make_folder=True)

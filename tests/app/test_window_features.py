@@ -16,6 +16,7 @@ from PySide6.QtWidgets import QApplication, QPushButton
 from sand_editor.app import EditorWindow
 from sand_editor.app._settings import SCHEMA_VERSION, EditorSettings
 from sand_editor.bake import FILES
+from sand_editor.files import OutputError
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
 from tests.app.conftest import run_python, show_and_wait_for_tile
@@ -204,12 +205,16 @@ def test_a_bake_into_an_unwritable_place_says_why(qtbot, settings_file, tmp_path
 
 def test_save_screenshot_writes_the_window_as_png(qtbot, settings_file, tmp_path):
     window = make_window(qtbot, settings_file)
-    path = tmp_path / "window.png"
-    assert window.save_screenshot(path)
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    path = shots / "window.png"
+    window.write_screenshot(path)
     image = Image.open(path)
     assert image.size == (window.width(), window.height())
-    assert not list(tmp_path.glob(".*partial"))
-    assert not window.save_screenshot(tmp_path / "missing-folder" / "window.png")
+    assert [p.name for p in shots.iterdir()] == ["window.png"], "no temporary file is left"
+    missing = tmp_path / "missing-folder" / "window.png"
+    with pytest.raises(OutputError, match="missing-folder.*folder does not exist"):
+        window.write_screenshot(missing)
     close(window, qtbot)
 
 

@@ -254,7 +254,7 @@ def test_save_into_a_missing_folder(tmp_path):
 
 def test_save_over_a_folder_leaves_nothing_behind(tmp_path):
     (tmp_path / "sand.json").mkdir()
-    with pytest.raises(PresetError, match="sand.json: cannot save"):
+    with pytest.raises(PresetError, match="sand.json: is a folder; allowed a regular file"):
         Preset().save(tmp_path / "sand.json")
     assert os.listdir(tmp_path) == ["sand.json"]
 
