@@ -30,8 +30,32 @@ _V2_SECTION_FIELDS = {
 }  # fmt: skip
 
 
+MAX_DEPTH = 8  # a preset nests three deep (document, section, list)
+
+
+def check_depth(document: Any) -> None:
+    """Refuse documents nested deeper than ``MAX_DEPTH`` (without recursing into them)."""
+    stack = [(document, 1)]
+    while stack:
+        value, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise PresetError(f"nested more than {MAX_DEPTH} deep; presets nest 3 deep")
+        if isinstance(value, dict):
+            stack.extend((item, depth + 1) for item in value.values())
+        elif isinstance(value, (list, tuple)):
+            stack.extend((item, depth + 1) for item in value)
+
+
 def _v1_to_v2(document: dict[str, Any]) -> dict[str, Any]:
     """Schema 1 had every field at the top level; schema 2 groups them into sections."""
+    for section in _V2_SECTION_FIELDS:
+        if section in document:
+            # Moving schema 1's fields into sections would replace this one: refuse, not lose it.
+            raise PresetError(
+                f"is 1, but the file has a {section!r} section, which schema 1 does not have; "
+                "allowed: schema_version 2 for a file with sections",
+                path="schema_version",
+            )
     migrated: dict[str, Any] = {}
     sections: dict[str, dict[str, Any]] = {name: {} for name in _V2_SECTION_FIELDS}
     for key, value in document.items():
@@ -98,6 +122,7 @@ def decode(document: Any) -> dict[str, Any]:
         raise PresetError(
             f'the top level is {type_name(document)}; allowed an object with "format": "{FORMAT}"'
         )
+    check_depth(document)
     if document.get("format") != FORMAT:
         found = f"{describe(document['format'])} is not" if "format" in document else "missing;"
         raise PresetError(f"{found} a Sand Editor preset; allowed {FORMAT!r}", path="format")

@@ -2,12 +2,43 @@
 
 from __future__ import annotations
 
+import unicodedata
+
+MAX_MESSAGE_CHARS = 300  # a whole message, file name and field path included
+_MAX_SOURCE_CHARS = 100  # a file name keeps its end, where the name is
+_MAX_PATH_CHARS = 60  # a field path (it may be a key read from the file) keeps its start
+
+
+def printable(text: str) -> str:
+    """``text`` with control, format and line-separator characters escaped (``\\n``,
+    ``\\x1b``, ``\\u2028``), so that a message from a hostile file stays one line and shows
+    exactly what is there."""
+    if text.isprintable():
+        return text
+    out = []
+    for char in text:
+        if char.isprintable() or char == " ":
+            out.append(char)
+        elif unicodedata.category(char) == "Zs":
+            out.append(" ")
+        else:
+            out.append(char.encode("unicode_escape").decode("ascii"))
+    return "".join(out)
+
+
+def shorten(text: str, limit: int, keep_end: bool = False) -> str:
+    """``text`` cut to ``limit`` characters with an ellipsis where it was cut."""
+    if len(text) <= limit:
+        return text
+    return "…" + text[-(limit - 1) :] if keep_end else text[: limit - 1] + "…"
+
 
 class PresetError(ValueError):
     """A preset file or value is not acceptable.
 
     The message names the file (when there is one), the field path (when there is one) and
-    what is allowed, in the form ``"{file}: {path}: {problem}; allowed ..."``.
+    what is allowed, in the form ``"{file}: {path}: {problem}; allowed ..."``: always one line
+    of at most ``MAX_MESSAGE_CHARS`` characters, with control characters escaped.
 
     Parameters
     ----------
@@ -20,10 +51,15 @@ class PresetError(ValueError):
     """
 
     def __init__(self, message: str, *, path: str | None = None, source: str | None = None):
-        self.message = message
-        self.path = path
-        self.source = source
-        super().__init__(": ".join(part for part in (source, path, message) if part))
+        self.message = printable(shorten(str(message), MAX_MESSAGE_CHARS))
+        self.path = None if path is None else shorten(printable(str(path)), _MAX_PATH_CHARS)
+        self.source = (
+            None
+            if source is None
+            else shorten(printable(str(source)), _MAX_SOURCE_CHARS, keep_end=True)
+        )
+        text = ": ".join(part for part in (self.source, self.path, self.message) if part)
+        super().__init__(shorten(text, MAX_MESSAGE_CHARS))
 
     def located(self, source: str | None = None, parent: str | None = None) -> PresetError:
         """Return the same error with a file name and/or a parent path prefixed."""
