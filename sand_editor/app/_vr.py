@@ -28,6 +28,7 @@ from sand_editor.vr.link import (
     EXIT_BAD_INPUT,
     EXIT_GRAPHICS,
     EXIT_INTERRUPTED,
+    EXIT_LINK_BROKEN,
     EXIT_NO_HEADSET,
     EXIT_NO_RUNTIME,
     EXIT_OK,
@@ -57,6 +58,8 @@ EXIT_MEANINGS = {
     EXIT_NO_HEADSET: "the OpenXR runtime has no headset ready (none found, or it was lost)",
     EXIT_GRAPHICS: "the viewer could not set up graphics (no OpenGL context, or the runtime "
     "refused the session)",
+    EXIT_LINK_BROKEN: "the viewer lost its link to the editor (reading the editor's messages "
+    "failed)",
     EXIT_INTERRUPTED: "the viewer was interrupted",
 }
 FIXES = {

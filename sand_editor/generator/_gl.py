@@ -31,6 +31,15 @@ class GpuSandTextures:
     layer_grain: moderngl.Texture
     framebuffer: moderngl.Framebuffer
 
+    @classmethod
+    def allocate(cls, ctx: moderngl.Context, size: int) -> GpuSandTextures:
+        """Empty grain textures of size×size on ``ctx``, with their framebuffer."""
+        nh = ctx.texture((size, size), 4, dtype="f4")
+        lg = ctx.texture((size, size), 2, dtype="u4")
+        for tex in (nh, lg):
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return cls(size, nh, lg, ctx.framebuffer(color_attachments=[nh, lg]))
+
     def read(self, constants: NoiseConstants) -> SandTextures:
         """Copy the textures to numpy arrays (a GPU → CPU read-back) and colour the grains."""
         n = self.size
@@ -74,13 +83,7 @@ class GLGenerator:
         p["u_jitter"].value = nc.jitter
 
     def allocate(self, size: int) -> GpuSandTextures:
-        ctx = self.ctx
-        nh = ctx.texture((size, size), 4, dtype="f4")
-        lg = ctx.texture((size, size), 2, dtype="u4")
-        for tex in (nh, lg):
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        fbo = ctx.framebuffer(color_attachments=[nh, lg])
-        return GpuSandTextures(size, nh, lg, fbo)
+        return GpuSandTextures.allocate(self.ctx, size)
 
     def render(
         self,

@@ -2,35 +2,11 @@
 
 from __future__ import annotations
 
-import unicodedata
+from sand_editor.text import printable, shorten
 
 MAX_MESSAGE_CHARS = 300  # a whole message, file name and field path included
 _MAX_SOURCE_CHARS = 100  # a file name keeps its end, where the name is
 _MAX_PATH_CHARS = 60  # a field path (it may be a key read from the file) keeps its start
-
-
-def printable(text: str) -> str:
-    """``text`` with control, format and line-separator characters escaped (``\\n``,
-    ``\\x1b``, ``\\u2028``), so that a message from a hostile file stays one line and shows
-    exactly what is there."""
-    if text.isprintable():
-        return text
-    out = []
-    for char in text:
-        if char.isprintable() or char == " ":
-            out.append(char)
-        elif unicodedata.category(char) == "Zs":
-            out.append(" ")
-        else:
-            out.append(char.encode("unicode_escape").decode("ascii"))
-    return "".join(out)
-
-
-def shorten(text: str, limit: int, keep_end: bool = False) -> str:
-    """``text`` cut to ``limit`` characters with an ellipsis where it was cut."""
-    if len(text) <= limit:
-        return text
-    return "…" + text[-(limit - 1) :] if keep_end else text[: limit - 1] + "…"
 
 
 class PresetError(ValueError):

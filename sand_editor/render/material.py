@@ -119,9 +119,10 @@ class SandMaterial:
         self.ground_truth_samples = 16
         self.close_cutoff = CLOSE_CUTOFF
         self._build = fullscreen_program(ctx, "material_build.frag")
-        self._grains = None
-        self._built_for = None
         size = self.texture_size
+        # Made once and drawn over by every generation: a material owns a fixed set of objects.
+        self._grains = GpuSandTextures.allocate(ctx, size)
+        self._built_for = None
         # Albedo is fine in half floats; the moments are not: the glint estimate subtracts
         # second moments and the hole from their means, which half floats round away.
         self.albedo = self._filterable(ctx.texture((size, size), 4, dtype="f2"))
@@ -154,35 +155,51 @@ class SandMaterial:
     def max_lod(self) -> float:
         return float(np.log2(self.texture_size))
 
-    def update(self, preset: Preset, between_bands: Callable[[], None] | None = None) -> None:
+    def update(
+        self,
+        preset: Preset,
+        between_bands: Callable[[], None] | None = None,
+        cancelled: Callable[[], bool] | None = None,
+    ) -> bool:
         """Make the GPU textures match ``preset``, doing only the work its changes need.
 
         With ``between_bands``, new grains are drawn in bands of ``GENERATION_BAND_ROWS`` rows
         and it is called after each: a thread making grains beside one that must keep drawing
         frames waits there, so the two share the GPU (or the CPU rasterizer's cores) in turns.
+        ``cancelled`` is asked after each band too: when it says True the work stops there, the
+        material holds no preset until its next update, and False is returned.
         """
+        try:
+            return self._update(preset, between_bands, cancelled)
+        except BaseException:
+            self.preset = None  # half-made: the next update makes everything again
+            self._built_for = None
+            raise
+
+    def _update(self, preset, between_bands, cancelled) -> bool:
         generation = preset.generation
-        if self._grains is None or self.preset is None or self.preset.generation != generation:
+        if self.preset is None or self.preset.generation != generation:
             constants = NoiseConstants.from_generation(generation)
             generator = gl_generator(self.ctx)
-            if self._grains is not None:
-                self._grains.release()
-                self._grains = None
+            self.preset = None  # until every band is drawn
+            self._built_for = None
             size = self.texture_size
-            if between_bands is None:
-                self._grains = generator.render(constants, size)
+            if between_bands is None and cancelled is None:
+                generator.render(constants, size, target=self._grains)
             else:
-                self._grains = generator.allocate(size)
                 for start in range(0, size, GENERATION_BAND_ROWS):
                     rows = (start, min(start + GENERATION_BAND_ROWS, size))
                     generator.render(constants, size, target=self._grains, rows=rows)
-                    between_bands()
-            self._built_for = None
+                    if between_bands is not None:
+                        between_bands()
+                    if cancelled is not None and cancelled():
+                        return False
         build_key = (generation, preset.shading.glint_mu, preset.shading.glint_sigma)
         if self._built_for != build_key:
             self._build_textures(preset)
             self._built_for = build_key
         self.preset = preset
+        return True
 
     def set_grains(self, preset: Preset, textures: SandTextures) -> None:
         """Use grains generated elsewhere (read back from another context) for ``preset``.
@@ -200,17 +217,6 @@ class SandMaterial:
         layer_grain = np.empty((n, n, 2), dtype=np.uint32)
         layer_grain[..., 0] = textures.layer.astype(np.int32) + 1
         layer_grain[..., 1] = textures.grain_id
-        if self._grains is None:
-            normal_height_texture = self.ctx.texture((n, n), 4, dtype="f4")
-            layer_grain_texture = self.ctx.texture((n, n), 2, dtype="u4")
-            for texture in (normal_height_texture, layer_grain_texture):
-                texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self._grains = GpuSandTextures(
-                n,
-                normal_height_texture,
-                layer_grain_texture,
-                self.ctx.framebuffer([normal_height_texture, layer_grain_texture]),
-            )
         self._grains.normal_height.write(normal_height)
         self._grains.layer_grain.write(layer_grain)
         self._built_for = None

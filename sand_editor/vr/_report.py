@@ -20,7 +20,8 @@ class FrameStats:
         self.frames_rendered = 0
         self.views_differ = True
         self.states: list[str] = []
-        self.errors: list[str] = []
+        self.errors: list[str] = []  # the first MAX_REPORTED_ERRORS of them
+        self.error_count = 0
         self.max_gap_frame = 0
         self.head_lod = None
         self.head_lod_changes = 0

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from sand_editor.vr.link import EXIT_GRAPHICS, EXIT_NO_HEADSET, EXIT_NO_RUNTIME
+from sand_editor.vr.link import EXIT_GRAPHICS, EXIT_LINK_BROKEN, EXIT_NO_HEADSET, EXIT_NO_RUNTIME
 
 RUNTIME_HELP = (
     "Install and activate an OpenXR runtime such as SteamVR, Monado or WiVRn (it sets the "
@@ -28,3 +28,9 @@ class NoHeadsetError(ViewerError):
 
 class GraphicsError(ViewerError):
     status = EXIT_GRAPHICS
+
+
+class LinkBrokenError(ViewerError):
+    """Reading the editor's link failed (EOF is no failure: it means quit)."""
+
+    status = EXIT_LINK_BROKEN

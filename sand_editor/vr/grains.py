@@ -47,66 +47,86 @@ class GrainWorker:
     """Makes materials on ``window``'s context (a hidden GLFW window sharing objects with the
     drawing context) in a daemon thread.
 
-    ``request(preset, seq)`` queues a preset (a newer request replaces a waiting one);
-    ``poll()`` returns a finished ``ReadyMaterial`` or None; ``give_back(material)`` hands the
-    material that is no longer drawn back for the next turn.
+    It owns exactly two materials, made at start: the one on screen and the one being brought
+    up to date; nothing is made or released per edit. ``request(preset, seq)`` asks for a
+    preset; a newer request replaces one not yet started, and stops one being made at its next
+    band (``superseded`` counts both). ``poll()`` returns a finished ``ReadyMaterial`` or None;
+    ``give_back(material)`` hands back the material that is no longer drawn, for the next turn.
     """
+
+    MATERIALS = 2
 
     def __init__(self, glfw, window, texture_size: int) -> None:
         self._glfw = glfw
         self._window = window
         self._texture_size = texture_size
-        self._requests: queue.Queue = queue.Queue()
-        self._ready: queue.SimpleQueue[ReadyMaterial] = queue.SimpleQueue()
+        self._wake = threading.Condition()
+        self._request: tuple[Preset, int | None, float] | None = None
         self._spare: list[SandMaterial] = []
-        self._lock = threading.Lock()
+        self._building = False
+        self._closing = False
+        self._ready: queue.SimpleQueue[ReadyMaterial] = queue.SimpleQueue()
         self._started = threading.Event()
         self._start_error: BaseException | None = None
-        self.busy = False
+        self.superseded = 0
         self._thread = threading.Thread(target=self._run, name="vr-grains", daemon=True)
         self._thread.start()
         self._started.wait()
         if self._start_error is not None:
             raise self._start_error
 
+    @property
+    def busy(self) -> bool:
+        """A request is waiting or being made."""
+        return self._request is not None or self._building
+
     def request(self, preset: Preset, seq: int | None = None) -> None:
-        with self._lock:
-            # Only the newest edit matters: drop ones not yet started.
-            while True:
-                try:
-                    self._requests.get_nowait()
-                except queue.Empty:
-                    break
-            self.busy = True
-            self._requests.put((preset, seq, time.perf_counter()))
+        with self._wake:
+            if self._request is not None:
+                self.superseded += 1
+            self._request = (preset, seq, time.perf_counter())
+            self._wake.notify()
 
     def poll(self) -> ReadyMaterial | None:
         try:
-            ready = self._ready.get_nowait()
+            return self._ready.get_nowait()
         except queue.Empty:
             return None
-        with self._lock:
-            self.busy = not self._requests.empty()
-        return ready
 
     def wait(self, timeout_s: float) -> ReadyMaterial | None:
         """Block for the next finished material (start-up only: the frame loop polls)."""
         try:
-            ready = self._ready.get(timeout=timeout_s)
+            return self._ready.get(timeout=timeout_s)
         except queue.Empty:
             return None
-        with self._lock:
-            self.busy = not self._requests.empty()
-        return ready
 
     def give_back(self, material: SandMaterial) -> None:
-        self._requests.put(("spare", material))
+        with self._wake:
+            self._spare.append(material)
+            self._wake.notify()
 
     def close(self) -> None:
-        self._requests.put(None)
+        with self._wake:
+            self._closing = True
+            self._wake.notify()
         self._thread.join(timeout=30)
 
     # ---- the thread ---------------------------------------------------------------------------
+
+    def _superseded(self) -> bool:
+        """Asked between bands: a newer request is waiting, or the viewer is closing."""
+        return self._request is not None or self._closing
+
+    def _next_job(self) -> tuple[tuple[Preset, int | None, float], SandMaterial] | None:
+        """The newest request and a spare material to make it in; None when closing."""
+        with self._wake:
+            while not self._closing and (self._request is None or not self._spare):
+                self._wake.wait()
+            if self._closing:
+                return None
+            job, self._request = self._request, None
+            self._building = True
+            return job, self._spare.pop()
 
     def _run(self) -> None:
         try:
@@ -120,7 +140,7 @@ class GrainWorker:
         try:
             # Both materials are made now, before the first frame: making one compiles its
             # programs and computes its ripple maps, half a second that would stall frames.
-            for _ in range(2):
+            for _ in range(self.MATERIALS):
                 materials.append(SandMaterial(ctx, self._texture_size))
             self._spare.extend(materials)
         except BaseException as exc:
@@ -129,26 +149,24 @@ class GrainWorker:
             return
         self._started.set()
         try:
-            while True:
-                job = self._requests.get()
-                if job is None:
-                    break
-                if job[0] == "spare":
-                    self._spare.append(job[1])
-                    continue
-                preset, seq, received = job
-                if self._spare:
-                    material = self._spare.pop()
-                else:  # both taken: the one on screen comes back with the next swap
-                    material = SandMaterial(ctx, self._texture_size)
-                    materials.append(material)
+            while (next_job := self._next_job()) is not None:
+                (preset, seq, received), material = next_job
                 try:
-                    material.update(preset, between_bands=_cede_to_the_frame_loop)
+                    finished = material.update(
+                        preset, between_bands=_cede_to_the_frame_loop, cancelled=self._superseded
+                    )
                     # Everything written must be visible to the drawing context before use.
                     finish_without_gil()
                 except Exception as exc:  # a preset the generator rejects keeps the old one
-                    self._spare.append(material)
+                    self.give_back(material)
                     self._ready.put(ReadyMaterial(None, preset, seq, received, str(exc)))
+                    continue
+                finally:
+                    self._building = False
+                if not finished:  # a newer request came in: it is made next, in this material
+                    with self._wake:
+                        self.superseded += 1
+                    self.give_back(material)
                     continue
                 self._ready.put(ReadyMaterial(material, preset, seq, received))
         finally:

@@ -11,10 +11,13 @@ viewer → editor: ``ready``, ``state``, ``applied``, ``time``, ``mode``, ``erro
 from __future__ import annotations
 
 import json
+import os
 import queue
 import sys
 import threading
 from typing import IO, Any
+
+from sand_editor.text import printable, shorten
 
 # Exit statuses of ``sand-editor vr``.
 EXIT_OK = 0
@@ -22,7 +25,15 @@ EXIT_BAD_INPUT = 1
 EXIT_NO_RUNTIME = 3
 EXIT_NO_HEADSET = 4
 EXIT_GRAPHICS = 5
+EXIT_LINK_BROKEN = 6  # reading the editor's link failed (not EOF, which means quit)
 EXIT_INTERRUPTED = 130
+
+# Bounds on what a line may hold; a line past them gets an error back, the link goes on.
+MAX_LINE_BYTES = 2 << 20  # a preset message is a few kilobytes; preset files stop at 1 MiB
+MAX_DEPTH = 16  # a preset message nests five deep
+MAX_NUMBER_CHARS = 100  # Python refuses integers of over 4300 digits; refuse far sooner
+MAX_ERROR_CHARS = 300  # an error message sent back, whatever the line held
+MAX_SEQ = 2**53  # sequence numbers are integers a JSON reader in any language keeps exactly
 
 EDITOR_MESSAGES = frozenset({"preset", "time", "mode", "quit"})
 VIEWER_MESSAGES = frozenset({"ready", "state", "applied", "time", "mode", "error", "bye"})
@@ -30,27 +41,80 @@ MAX_DAY_SPEED = 24.0  # simulated hours per real second
 
 
 class LinkError(ValueError):
-    """A line that is not a link message: not JSON, not an object, or without a ``type``."""
+    """A line that is not a link message: not UTF-8, not JSON, over a bound, not an object, or
+    without a ``type``; or a message field of the wrong type or out of range."""
+
+
+def error_text(text: str) -> str:
+    """An error message safe to send back: one line (control characters escaped), bounded."""
+    return shorten(printable(text), MAX_ERROR_CHARS)
 
 
 def encode(type: str, **fields: Any) -> str:  # noqa: A002 - the protocol's field name
-    """One message as a line of JSON (with its newline)."""
-    return json.dumps({"type": type, **fields}, ensure_ascii=False, allow_nan=False) + "\n"
+    """One message as a line of JSON (with its newline), in ASCII: it reads the same whatever
+    the encoding of the pipe's two ends."""
+    return json.dumps({"type": type, **fields}, ensure_ascii=True, allow_nan=False) + "\n"
+
+
+def _number(convert):
+    def parse(text: str):
+        if len(text) > MAX_NUMBER_CHARS:
+            raise LinkError(f"a number of {len(text)} characters; allowed {MAX_NUMBER_CHARS}")
+        return convert(text)
+
+    return parse
+
+
+_parse_int, _parse_float = _number(int), _number(float)
+
+
+def _check_depth(message) -> None:
+    stack = [(message, 1)]
+    while stack:
+        value, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise LinkError(f"nested more than {MAX_DEPTH} deep")
+        if isinstance(value, dict):
+            stack.extend((item, depth + 1) for item in value.values())
+        elif isinstance(value, list):
+            stack.extend((item, depth + 1) for item in value)
 
 
 def decode(line: str | bytes) -> dict:
-    """The message of one line; ``LinkError`` names what is wrong with it."""
+    """The message of one line; ``LinkError`` names what is wrong with it (and nothing else is
+    raised, whatever the line holds)."""
     if isinstance(line, bytes):
-        line = line.decode("utf-8", errors="replace")
+        if len(line) > MAX_LINE_BYTES:
+            raise LinkError(f"a line of {len(line)} bytes; allowed {MAX_LINE_BYTES}")
+        try:
+            line = line.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise LinkError(
+                f"not UTF-8: byte 0x{line[exc.start]:02x} at offset {exc.start}"
+            ) from None
     try:
-        message = json.loads(line)
+        message = json.loads(line, parse_int=_parse_int, parse_float=_parse_float)
     except json.JSONDecodeError as exc:
         raise LinkError(f"not JSON: {exc.msg} at column {exc.colno}") from None
+    except RecursionError:
+        raise LinkError(f"nested more than {MAX_DEPTH} deep") from None
+    _check_depth(message)
     if not isinstance(message, dict):
         raise LinkError(f"expected a JSON object, got {type(message).__name__}")
     if not isinstance(message.get("type"), str):
         raise LinkError("message has no string field 'type'")
     return message
+
+
+def check_seq(message: dict) -> int | None:
+    """A message's ``seq``: absent or null, or an integer from 0 to 2**53."""
+    seq = message.get("seq")
+    if seq is None:
+        return None
+    if isinstance(seq, bool) or not isinstance(seq, int) or not 0 <= seq <= MAX_SEQ:
+        shown = shorten(repr(seq), 40) if isinstance(seq, (int, float, str)) else type(seq).__name__
+        raise LinkError(f"seq must be null or an integer from 0 to 2**53, got {shown}")
+    return seq
 
 
 def check_time_fields(message: dict) -> dict:
@@ -81,39 +145,88 @@ def _is_number(value) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and value == value
 
 
+_TOO_LONG = object()  # what the line splitter yields for a line past MAX_LINE_BYTES
+
+
+def _fd_lines(fd: int):
+    """Lines (bytes, with their newline) read from a file descriptor with ``os.read``: no
+    Python buffer and so no lock that a reader blocked at exit would hold. A line longer than
+    ``MAX_LINE_BYTES`` is dropped to its end and stands as ``_TOO_LONG``."""
+    pending = bytearray()
+    skipping = False
+    while chunk := os.read(fd, 1 << 16):
+        start = 0
+        while (end := chunk.find(b"\n", start)) >= 0:
+            if skipping:
+                skipping = False
+            else:
+                pending += chunk[start : end + 1]
+                yield _TOO_LONG if len(pending) > MAX_LINE_BYTES + 1 else bytes(pending)
+            pending.clear()
+            start = end + 1
+        if not skipping:
+            pending += chunk[start:]
+            if len(pending) > MAX_LINE_BYTES:
+                yield _TOO_LONG
+                pending.clear()
+                skipping = True
+    if pending and not skipping:
+        yield bytes(pending)
+
+
+def _stream_lines(stream):
+    """Lines of a file object without a descriptor (an in-memory stream in tests)."""
+    for line in stream:
+        yield _TOO_LONG if len(line) > MAX_LINE_BYTES + 1 else line
+
+
 class StdioLink:
     """The viewer's end: a daemon thread reads lines from ``stdin`` into a queue.
 
-    ``poll()`` returns the messages received since the last call without blocking (a line that
-    is not a message comes back as ``{"type": "error", ...}`` from ``decode``'s complaint, for
-    the caller to answer); ``send(**message)`` writes one line and flushes, from any thread;
-    ``closed`` turns true at EOF.
+    ``poll()`` returns what was received since the last call without blocking: a message dict
+    for each good line, a ``LinkError`` for each bad one (for the caller to answer); ``send(**
+    message)`` writes one line and flushes, from any thread; ``closed`` turns true at EOF, and
+    ``broken`` holds the reason when reading failed instead (the link itself broke).
+
+    Lines are read as bytes from the descriptor, whatever the locale's encoding; a line over
+    ``MAX_LINE_BYTES`` is skipped to its end and answered with an error.
     """
 
-    def __init__(self, stdin: IO[str] | None = None, stdout: IO[str] | None = None) -> None:
+    def __init__(self, stdin: IO | None = None, stdout: IO[str] | None = None) -> None:
         self._stdin = stdin if stdin is not None else sys.stdin
         self._stdout = stdout if stdout is not None else sys.stdout
-        self._messages: queue.SimpleQueue[dict] = queue.SimpleQueue()
+        self._messages: queue.SimpleQueue[dict | LinkError] = queue.SimpleQueue()
         self._write_lock = threading.Lock()
         self.closed = False
+        self.broken: str | None = None
         self._reader = threading.Thread(target=self._read, name="vr-link-reader", daemon=True)
         self._reader.start()
 
+    def _lines(self):
+        try:
+            fd = self._stdin.fileno()
+        except (AttributeError, OSError, ValueError):
+            return _stream_lines(self._stdin)
+        return _fd_lines(fd)
+
     def _read(self) -> None:
         try:
-            for line in self._stdin:
+            for line in self._lines():
+                if line is _TOO_LONG:
+                    self._messages.put(LinkError(f"a line over {MAX_LINE_BYTES} bytes; skipped"))
+                    continue
                 if not line.strip():
                     continue
                 try:
                     self._messages.put(decode(line))
                 except LinkError as exc:
-                    self._messages.put({"type": "_invalid", "message": str(exc)})
-        except (OSError, ValueError):
-            pass  # stdin closed under us: the same as EOF
+                    self._messages.put(exc)
+        except BaseException as exc:  # noqa: BLE001 - reported by the frame loop, not lost
+            self.broken = f"{type(exc).__name__}: {exc}"
         finally:
             self.closed = True
 
-    def poll(self) -> list[dict]:
+    def poll(self) -> list[dict | LinkError]:
         received = []
         while True:
             try:
@@ -137,6 +250,7 @@ class NullLink:
     """No editor attached: messages go nowhere, nothing arrives."""
 
     closed = False
+    broken = None
 
     def poll(self) -> list[dict]:
         return []

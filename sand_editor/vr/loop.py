@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 import time
+import traceback
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
@@ -31,9 +32,15 @@ from sand_editor.vr.actions import (
     apply_command,
     commands_from_input,
 )
-from sand_editor.vr.errors import NoHeadsetError
+from sand_editor.vr.errors import LinkBrokenError, NoHeadsetError
 from sand_editor.vr.grains import GrainWorker
-from sand_editor.vr.link import LinkError, check_time_fields
+from sand_editor.vr.link import (
+    EDITOR_MESSAGES,
+    LinkError,
+    check_seq,
+    check_time_fields,
+    error_text,
+)
 from sand_editor.vr.workbench import Workbench
 from sand_editor.vr.xrmath import Fov, Pose, eye_camera
 
@@ -45,6 +52,7 @@ MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
 SESSION_NOTICE_S = 10.0  # waiting this long for the session to run: tell the user
 SESSION_TIMEOUT_S = 60.0  # ... and give up with --frames (tests, support runs)
 WARM_UP_FRAMES = 50  # the report's resource counts are taken here and at the end
+MAX_REPORTED_ERRORS = 200  # the report keeps the first errors; each is still answered
 
 
 @dataclass
@@ -350,17 +358,25 @@ class FrameLoop:
 
     def _handle_link(self) -> None:
         for message in self.link.poll():
+            if isinstance(message, LinkError):  # a line that is no message
+                self._error(str(message))
+                continue
             try:
                 self._handle_message(message)
-            except (LinkError, PresetError, ValueError) as exc:
-                self._error(f"{message.get('type')}: {exc}")
+            except (LinkError, PresetError) as exc:
+                self._error(f"{message['type']}: {exc}")
+            except Exception as exc:  # noqa: BLE001 - no line may end the viewer
+                traceback.print_exc(file=sys.stderr)
+                self._error(f"{message['type']}: not applied: {type(exc).__name__}: {exc}")
         if self.link.closed:
+            if self.link.broken is not None:
+                raise LinkBrokenError(f"the link to the editor broke: {self.link.broken}")
             self.backend.request_exit()
 
     def _handle_message(self, message: dict) -> None:
         kind = message["type"]
         if kind == "preset":
-            seq = message.get("seq")
+            seq = check_seq(message)
             preset = Preset.from_dict(message.get("preset"), source="the editor's preset")
             label = f"{preset.name} (editing)"
             if self.presets[0][0].endswith("(editing)"):
@@ -375,18 +391,20 @@ class FrameLoop:
             self.controls = replace(self.controls, **fields)
         elif kind == "mode":
             mode = message.get("mode")
-            if mode not in MODES:
-                raise LinkError(f"unknown mode {mode!r}; allowed: {', '.join(MODES)}")
+            if not isinstance(mode, str) or mode not in MODES:
+                shown = repr(mode) if isinstance(mode, str) else type(mode).__name__
+                raise LinkError(f"unknown mode {shown}; allowed: {', '.join(MODES)}")
             self.controls = replace(self.controls, mode=mode)
         elif kind == "quit":
             self.backend.request_exit()
-        elif kind == "_invalid":
-            raise LinkError(message["message"])
         else:
-            raise LinkError(f"unknown message type {kind!r}")
+            raise LinkError(f"unknown message type {kind!r}; allowed: {', '.join(EDITOR_MESSAGES)}")
 
     def _error(self, text: str) -> None:
-        self.stats.errors.append(text)
+        text = error_text(text)
+        self.stats.error_count += 1
+        if len(self.stats.errors) < MAX_REPORTED_ERRORS:
+            self.stats.errors.append(text)
         self.link.send(type="error", message=text)
 
     # ---- grains -------------------------------------------------------------------------------
@@ -493,6 +511,8 @@ class FrameLoop:
             "resources": self.resources,
             "states": stats.states,
             "errors": [*stats.errors, *rejected],
+            "link_errors_answered": stats.error_count,
+            "grain_requests_superseded": self.worker.superseded,
         }
 
 

@@ -151,13 +151,17 @@ def test_ours_flickers_less_than_no_filtering(probe):
 def test_updates_redo_only_what_changed(probe):
     material = probe.material
     grains = material._grains
+    before = grains.normal_height.read()
     material.update(Preset().replace(**{"shading.glint_shininess": 30.0}))
-    assert material._grains is grains, "a shading change must not regenerate the grains"
+    assert grains.normal_height.read() == before, "a shading change must not regenerate grains"
     built = material._built_for
     material.update(Preset().replace(**{"shading.glint_mu": 0.9}))
-    assert material._grains is grains and material._built_for != built
+    assert material._built_for != built and grains.normal_height.read() == before
     material.update(Preset().replace(**{"generation.seed": 99}))
-    assert material._grains is not grains
+    assert grains.normal_height.read() != before, "new generation parameters, new grains"
+    assert material._grains is grains, "drawn over the same textures: no objects made per edit"
+    material.update(Preset())
+    assert grains.normal_height.read() == before
 
 
 def test_average_albedo_is_the_tile_mean(probe, gl_ctx):

@@ -55,8 +55,9 @@ def test_time_fields_are_checked():
 
 def test_exit_statuses_are_distinct():
     statuses = [link.EXIT_OK, link.EXIT_BAD_INPUT, link.EXIT_NO_RUNTIME, link.EXIT_NO_HEADSET,
+                link.EXIT_LINK_BROKEN,
                 link.EXIT_GRAPHICS, link.EXIT_INTERRUPTED]  # fmt: skip
-    assert statuses == [0, 1, 3, 4, 5, 130]
+    assert statuses == [0, 1, 3, 4, 6, 5, 130]
 
 
 def _wait_for(predicate, timeout=5.0):
@@ -78,7 +79,7 @@ def test_reader_queues_messages_and_sees_eof():
     received = []
     _wait_for(lambda: received.extend(stdio.poll()) or len(received) >= 3)
     assert received[0] == {"type": "mode", "mode": "lambert"}
-    assert received[1]["type"] == "_invalid" and "not JSON" in received[1]["message"]
+    assert isinstance(received[1], LinkError) and "not JSON" in str(received[1])
     assert received[2] == {"type": "quit"}
     assert not stdio.closed
     writer.close()
@@ -111,3 +112,63 @@ def test_link_module_imports_no_openxr_or_gl():
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+@pytest.mark.parametrize(
+    "line,reason",
+    [
+        (b'{"type": "mode", "mode": "\xff"}\n', "not UTF-8: byte 0xff"),
+        (b"[" * 100_000 + b"\n", "nested more than"),
+        (b'{"type": "preset", "seq": ' + b"9" * 4301 + b"}\n", "a number of 4301 characters"),
+        (b'{"type": "x", "a": ' + b"[" * 30 + b"]" * 30 + b"}\n", "nested more than 16 deep"),
+    ],
+)
+def test_decode_raises_only_link_error_for_hostile_lines(line, reason):
+    with pytest.raises(LinkError, match=reason):
+        decode(line)
+
+
+@pytest.mark.parametrize("seq", [float("nan"), float("inf"), 1e999, -1, 2**60, True, "1", [1]])
+def test_seq_must_be_a_small_integer(seq):
+    with pytest.raises(LinkError, match="seq must be null or an integer"):
+        link.check_seq({"type": "preset", "seq": seq})
+    assert link.check_seq({"type": "preset", "seq": 7}) == 7
+    assert link.check_seq({"type": "preset"}) is None
+
+
+def test_reader_skips_an_over_long_line_and_reads_on():
+    read_fd, write_fd = os.pipe()
+    stdio = StdioLink(os.fdopen(read_fd, "rb"), io.StringIO())
+    writer = os.fdopen(write_fd, "wb")
+
+    def write():
+        writer.write(b"[" * (link.MAX_LINE_BYTES + 10) + b"\n" + encode("quit").encode())
+        writer.close()
+
+    threading.Thread(target=write, daemon=True).start()
+    received = []
+    _wait_for(lambda: received.extend(stdio.poll()) or stdio.closed, timeout=30)
+    received.extend(stdio.poll())
+    assert len(received) == 2
+    assert isinstance(received[0], LinkError) and "over" in str(received[0])
+    assert received[1] == {"type": "quit"}
+    assert stdio.broken is None
+
+
+def test_a_read_error_marks_the_link_broken_not_closed_quietly():
+    class Failing:
+        def fileno(self):
+            raise OSError("no descriptor")
+
+        def __iter__(self):
+            raise OSError(5, "Input/output error")
+
+    stdio = StdioLink(Failing(), io.StringIO())
+    _wait_for(lambda: stdio.closed)
+    assert stdio.broken is not None and "Input/output error" in stdio.broken
+
+
+def test_error_text_is_one_bounded_line():
+    text = link.error_text("unknown message type 'a\nb\x1b" + "z" * 10_000 + "'")
+    assert "\n" not in text and "\\n" in text and "\\x1b" in text
+    assert len(text) <= link.MAX_ERROR_CHARS

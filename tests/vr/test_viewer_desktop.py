@@ -147,7 +147,7 @@ def test_no_display_gives_exit_status_5_and_says_so():
 class _Viewer:
     """The viewer as the editor runs it: JSON lines in, JSON lines out."""
 
-    def __init__(self, *args):
+    def __init__(self, *args, **env):
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "sand_editor", "vr", "--control", "stdio", *args],
             cwd=REPO,
@@ -155,7 +155,7 @@ class _Viewer:
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
-            env=_env(),
+            env=_env(**env),
         )
         self.lines: queue.Queue = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
@@ -169,6 +169,12 @@ class _Viewer:
     def send(self, type, **fields):  # noqa: A002
         self.proc.stdin.write(encode(type, **fields))
         self.proc.stdin.flush()
+
+    def send_raw(self, data: bytes) -> None:
+        """Bytes as they are, whatever they hold."""
+        self.proc.stdin.flush()
+        self.proc.stdin.buffer.write(data)
+        self.proc.stdin.buffer.flush()
 
     def expect(self, predicate, timeout=120.0) -> dict:
         end = time.monotonic() + timeout
