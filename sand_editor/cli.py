@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from sand_editor.preset import Preset, PresetError
 from sand_editor.resources import bundled_preset
+from sand_editor.text import printable, shorten
+
+MAX_ERROR_CHARS = 500  # one line on stderr, whatever the input held
 
 
 class CommandError(Exception):
@@ -39,7 +44,12 @@ def _cmd_edit(args) -> int:
 
 def _cmd_bake(args) -> int:
     from sand_editor.bake import bake
+    from sand_editor.generator import check_size
 
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CommandError(f"{out}: is not a folder; --out names the folder to bake into")
+    check_size(args.size)
     preset = Preset.load(preset_path(args.preset))
     report = bake(preset, args.size, Path(args.out))
     stats = report["statistics"]
@@ -245,15 +255,23 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminated(signum, frame):
+    # Unwinds like Ctrl+C, so that a half-written output's temporary file is removed.
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if not argv or (argv[0] not in {"edit", "bake", "render", "vr", "bench", "-h", "--help"}):
         argv = ["edit", *argv]
     args = _parser().parse_args(argv)
+    if args.command in ("bake", "render") and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminated)
     try:
         return args.run(args)
     except (PresetError, CommandError, ValueError, OSError) as exc:
-        print(f"sand-editor {args.command}: error: {exc}", file=sys.stderr)
+        message = shorten(printable(str(exc)), MAX_ERROR_CHARS)
+        print(f"sand-editor {args.command}: error: {message}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         return 130

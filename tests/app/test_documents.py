@@ -177,3 +177,29 @@ def test_window_wears_the_shipped_stylesheet(window):
     shipped = (ui_dir() / "editor.qss").read_text(encoding="utf-8")
     assert window.styleSheet() == shipped
     assert "QGroupBox" in shipped
+
+
+HOSTILE_FILES = {
+    "digits": '{"format": "sand-editor-preset", "schema_version": 2, "seed": 1' + "0" * 4400 + "}",
+    "nesting": '{"format": "sand-editor-preset", "schema_version": 2, "name": '
+    + "[" * 980
+    + "]" * 980
+    + "}",
+    "mislabelled": '{"format": "sand-editor-preset", "schema_version": 1, "generation": {}}',
+    "control key": '{"format": "sand-editor-preset", "schema_version": 2, "a\\nb\\u001b": 1}',
+}
+
+
+@pytest.mark.parametrize("kind", list(HOSTILE_FILES))
+def test_hostile_files_get_one_line_dialog_and_the_work_stays(
+    window, tmp_path, critical_calls, kind
+):
+    window.model.edit("generation.threshold", 0.45)
+    work = window.model.preset
+    path = tmp_path / f"{kind}.json"
+    path.write_text(HOSTILE_FILES[kind], encoding="utf-8")
+    assert not window.open_path(path)
+    assert len(critical_calls) == 1
+    message = critical_calls[0]
+    assert str(path) in message
+    assert window.model.preset == work and window.isWindowModified()

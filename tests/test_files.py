@@ -1,0 +1,184 @@
+"""Outputs are regular files written whole or not at all (sand_editor.files), for real: killed
+writers, concurrent writers into one folder, devices and FIFOs, a full disk."""
+
+from __future__ import annotations
+
+import os
+import random
+import resource
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from sand_editor.files import OutputError, remove_stray_temporaries, write_atomic, write_folder
+from sand_editor.preset import Preset, PresetError
+
+REPO = Path(__file__).resolve().parents[1]
+ENV = dict(os.environ, PYTHONPATH=str(REPO))
+
+
+def _python(code: str, **kwargs) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", code], cwd=REPO, env=ENV, **kwargs)
+
+
+def test_a_fifo_or_folder_is_refused_and_left_as_it_was(tmp_path):
+    fifo = tmp_path / "pipe.png"
+    os.mkfifo(fifo)
+    with pytest.raises(OutputError, match=r"pipe\.png: is a FIFO; allowed a regular file"):
+        write_atomic(fifo, b"data")
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    folder = tmp_path / "out.png"
+    folder.mkdir()
+    with pytest.raises(OutputError, match="is a folder"):
+        write_atomic(folder, b"data")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png", "pipe.png"]
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["render", "paper-default", "--size", "16x16", "--out", "/dev/full"],
+        ["vr", "--desktop", "--frames", "1", "--report", "/dev/full"],
+    ],
+)
+def test_the_cli_refuses_a_device_as_output_and_keeps_it(args):
+    result = subprocess.run(
+        [sys.executable, "-m", "sand_editor", *args],
+        cwd=REPO, env=ENV, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 1, result.stderr
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+    assert "/dev/full: is a character device; allowed a regular file" in result.stderr
+    assert stat.S_ISCHR(os.stat("/dev/full").st_mode)
+
+
+def test_a_write_that_fails_names_the_file_and_keeps_the_old_one(tmp_path):
+    path = tmp_path / "sand.json"
+    Preset(name="old").save(path)
+    old = path.read_bytes()
+
+    def small_files():  # the disk is as full as an 80-byte file limit makes it
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (80, 80))
+
+    code = (
+        "import sys; from sand_editor.preset import Preset, PresetError\n"
+        "try:\n    Preset(name='new').save(sys.argv[1])\n"
+        "except PresetError as e:\n    print(e); sys.exit(1)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code, str(path)],
+        cwd=REPO, env=ENV, capture_output=True, text=True, timeout=60, preexec_fn=small_files,
+    )  # fmt: skip
+    assert result.returncode == 1, result.stderr
+    assert result.stdout.strip() == f"{path}: cannot save: File too large"
+    assert path.read_bytes() == old
+    assert [p.name for p in tmp_path.iterdir()] == ["sand.json"], "no temporary file is left"
+
+
+def test_stray_temporaries_of_dead_writers_go_and_live_ones_stay(tmp_path):
+    sleeper = _python("import time; time.sleep(60)")
+    try:
+        dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True).stdout.strip()  # fmt: skip
+        (tmp_path / f".sand.json.{dead}-0badcafe.tmp").write_text("half")
+        (tmp_path / f".sand.json.{sleeper.pid}-00c0ffee.tmp").write_text("being written")
+        (tmp_path / ".other.json.1-deadbeef.tmp").write_text("another file's")
+        Preset().save(tmp_path / "sand.json")
+        names = sorted(p.name for p in tmp_path.iterdir())
+        assert names == [
+            ".other.json.1-deadbeef.tmp",
+            f".sand.json.{sleeper.pid}-00c0ffee.tmp",
+            "sand.json",
+        ]
+        assert remove_stray_temporaries(tmp_path, "sand.json") == 0
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+
+
+SAVER = """
+import sys
+from sand_editor.preset import Preset
+path = sys.argv[1]
+presets = [Preset(name=f"save {i}", description="d" * 2000) for i in range(4)]
+print("ready", flush=True)
+i = 0
+while True:
+    presets[i % 4].save(path)
+    i += 1
+"""
+
+
+@pytest.mark.slow
+def test_200_kills_during_saves_leave_a_whole_file_and_no_stray_temporaries(tmp_path):
+    path = tmp_path / "sand.json"
+    rng = random.Random(7)
+    for _ in range(200):
+        saver = subprocess.Popen(
+            [sys.executable, "-c", SAVER, str(path)],
+            cwd=REPO, env=ENV, stdout=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        assert saver.stdout.readline().strip() == "ready"
+        time.sleep(rng.uniform(0.0, 0.03))
+        saver.send_signal(signal.SIGKILL)
+        saver.wait()
+        saver.stdout.close()
+        if path.exists():
+            assert Preset.load(path).name.startswith("save "), "every saved file is whole"
+    Preset(name="after").save(path)
+    assert [p.name for p in tmp_path.iterdir()] == ["sand.json"]
+    assert Preset.load(path).name == "after"
+
+
+WRITER = """
+import sys, time
+from sand_editor.files import write_folder
+folder, tag, start = sys.argv[1], sys.argv[2], float(sys.argv[3])
+files = {f"{name}.png": (tag * 200_000).encode() for name in "abcdef"}
+files["material.json"] = tag.encode()
+while time.time() < start:
+    pass
+write_folder(folder, files)
+"""
+
+
+@pytest.mark.slow
+def test_concurrent_writers_into_one_folder_never_mix_their_files(tmp_path):
+    mixed = 0
+    for round_ in range(20):
+        folder = tmp_path / f"round-{round_}"
+        start = time.time() + 0.4
+        writers = [
+            subprocess.Popen(
+                [sys.executable, "-c", WRITER, str(folder), tag, str(start)], cwd=REPO, env=ENV
+            )  # fmt: skip
+            for tag in "WXYZ"
+        ]
+        assert [w.wait(timeout=60) for w in writers] == [0, 0, 0, 0]
+        tags = {path.read_bytes()[:1] for path in folder.iterdir()}
+        assert all(not p.name.startswith(".") for p in folder.iterdir()), "no temporary left"
+        mixed += len(tags) > 1
+    assert mixed == 0
+
+
+def test_write_folder_replaces_nothing_when_one_file_cannot_be_written(tmp_path):
+    write_folder(tmp_path, {"a.png": b"old a", "b.png": b"old b"})
+    (tmp_path / "c.png").mkdir()
+    with pytest.raises(OutputError, match=r"c\.png: is a folder"):
+        write_folder(tmp_path, {"a.png": b"new a", "b.png": b"new b", "c.png": b"new c"})
+    assert (tmp_path / "a.png").read_bytes() == b"old a"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "b.png", "c.png"]
+
+
+def test_preset_save_over_a_device_is_a_preset_error(tmp_path):
+    fifo = tmp_path / "sand.json"
+    os.mkfifo(fifo)
+    with pytest.raises(PresetError, match="sand.json: is a FIFO"):
+        Preset().save(fifo)
