@@ -10,7 +10,7 @@ from pathlib import Path
 
 from sand_editor.preset import Preset, PresetError
 from sand_editor.resources import bundled_preset
-from sand_editor.text import printable, shorten
+from sand_editor.untrusted import printable, shorten
 
 MAX_ERROR_CHARS = 500  # one line on stderr, whatever the input held
 

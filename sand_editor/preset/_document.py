@@ -8,6 +8,7 @@ from typing import Any
 from sand_editor.preset._checks import describe, type_name
 from sand_editor.preset._errors import PresetError
 from sand_editor.preset._fields import section_fields, unknown_field
+from sand_editor.untrusted import deeper_than
 
 FORMAT = "sand-editor-preset"
 SCHEMA_VERSION = 2
@@ -35,15 +36,8 @@ MAX_DEPTH = 8  # a preset nests three deep (document, section, list)
 
 def check_depth(document: Any) -> None:
     """Refuse documents nested deeper than ``MAX_DEPTH`` (without recursing into them)."""
-    stack = [(document, 1)]
-    while stack:
-        value, depth = stack.pop()
-        if depth > MAX_DEPTH:
-            raise PresetError(f"nested more than {MAX_DEPTH} deep; presets nest 3 deep")
-        if isinstance(value, dict):
-            stack.extend((item, depth + 1) for item in value.values())
-        elif isinstance(value, (list, tuple)):
-            stack.extend((item, depth + 1) for item in value)
+    if deeper_than(document, MAX_DEPTH):
+        raise PresetError(f"nested more than {MAX_DEPTH} deep; presets nest 3 deep")
 
 
 def _v1_to_v2(document: dict[str, Any]) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from sand_editor.text import printable, shorten
+from sand_editor.untrusted import printable, shorten
 
 MAX_MESSAGE_CHARS = 300  # a whole message, file name and field path included
 _MAX_SOURCE_CHARS = 100  # a file name keeps its end, where the name is

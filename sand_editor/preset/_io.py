@@ -5,11 +5,11 @@ from __future__ import annotations
 import json
 import os
 import stat
-from collections.abc import Callable
 from typing import Any
 
 from sand_editor.files import OutputError, write_atomic
 from sand_editor.preset._errors import PresetError
+from sand_editor.untrusted import bounded_number
 
 MAX_FILE_BYTES = 1 << 20
 MAX_NUMBER_CHARS = 100  # every value a preset allows is written in far fewer
@@ -30,19 +30,8 @@ def _refuse_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return result
 
 
-def _bounded(convert: Callable[[str], Any]) -> Callable[[str], Any]:
-    # Python refuses to convert integers of over 4300 digits (ValueError); refuse far sooner.
-    def parse(text: str) -> Any:
-        if len(text) > MAX_NUMBER_CHARS:
-            raise PresetError(
-                f"a number of {len(text)} characters; allowed at most {MAX_NUMBER_CHARS}"
-            )
-        return convert(text)
-
-    return parse
-
-
-_integer, _float = _bounded(int), _bounded(float)
+_integer = bounded_number(int, MAX_NUMBER_CHARS, PresetError)
+_float = bounded_number(float, MAX_NUMBER_CHARS, PresetError)
 
 
 def parse_json(text: str) -> Any:

@@ -17,7 +17,7 @@ import sys
 import threading
 from typing import IO, Any
 
-from sand_editor.text import printable, shorten
+from sand_editor.untrusted import bounded_number, deeper_than, printable, shorten
 
 # Exit statuses of ``sand-editor vr``.
 EXIT_OK = 0
@@ -56,28 +56,8 @@ def encode(type: str, **fields: Any) -> str:  # noqa: A002 - the protocol's fiel
     return json.dumps({"type": type, **fields}, ensure_ascii=True, allow_nan=False) + "\n"
 
 
-def _number(convert):
-    def parse(text: str):
-        if len(text) > MAX_NUMBER_CHARS:
-            raise LinkError(f"a number of {len(text)} characters; allowed {MAX_NUMBER_CHARS}")
-        return convert(text)
-
-    return parse
-
-
-_parse_int, _parse_float = _number(int), _number(float)
-
-
-def _check_depth(message) -> None:
-    stack = [(message, 1)]
-    while stack:
-        value, depth = stack.pop()
-        if depth > MAX_DEPTH:
-            raise LinkError(f"nested more than {MAX_DEPTH} deep")
-        if isinstance(value, dict):
-            stack.extend((item, depth + 1) for item in value.values())
-        elif isinstance(value, list):
-            stack.extend((item, depth + 1) for item in value)
+_parse_int = bounded_number(int, MAX_NUMBER_CHARS, LinkError)
+_parse_float = bounded_number(float, MAX_NUMBER_CHARS, LinkError)
 
 
 def decode(line: str | bytes) -> dict:
@@ -98,7 +78,8 @@ def decode(line: str | bytes) -> dict:
         raise LinkError(f"not JSON: {exc.msg} at column {exc.colno}") from None
     except RecursionError:
         raise LinkError(f"nested more than {MAX_DEPTH} deep") from None
-    _check_depth(message)
+    if deeper_than(message, MAX_DEPTH):
+        raise LinkError(f"nested more than {MAX_DEPTH} deep")
     if not isinstance(message, dict):
         raise LinkError(f"expected a JSON object, got {type(message).__name__}")
     if not isinstance(message.get("type"), str):
