@@ -140,7 +140,9 @@ def read_without_gil(texture: moderngl.Texture, **kwargs) -> bytes:
 
 
 _GL_TEXTURE_2D = 0x0DE1
-_INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([^"]+)"[ \t]*$', re.M)
+# #include "file", or #include "file" if NAME: only in programs compiled with NAME defined (the
+# benchmark's probe code, which production programs must not even contain).
+_INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([^"]+)"(?:[ \t]+if[ \t]+(\w+))?[ \t]*$', re.M)
 
 
 class ShaderSourceError(ValueError):
@@ -152,9 +154,17 @@ def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
     ``defines`` inserted after its ``#version`` line.
 
     Each file is included once per program (later includes of it are dropped), so shared
-    libraries can include what they use.
+    libraries can include what they use. ``#include "file" if NAME`` includes the file only
+    when ``defines`` holds NAME.
     """
     seen: set[str] = set()
+    defined = set(defines or ())
+
+    def include(match: re.Match, chain: tuple[str, ...]) -> str:
+        file, condition = match.group(1), match.group(2)
+        if condition is not None and condition not in defined:
+            return ""
+        return expand(file, chain)
 
     def expand(file: str, chain: tuple[str, ...]) -> str:
         if file in chain:
@@ -167,7 +177,7 @@ def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
         except FileNotFoundError:
             where = f" (included from shaders/{chain[-1]})" if chain else ""
             raise ShaderSourceError(f"shaders/{file}: no such shader file{where}") from None
-        return _INCLUDE.sub(lambda m: expand(m.group(1), (*chain, file)), text)
+        return _INCLUDE.sub(lambda m: include(m, (*chain, file)), text)
 
     source = expand(name, ())
     if defines:

@@ -45,7 +45,15 @@ def bundled_preset(name: str) -> Path:
     return path
 
 
+BENCH_SHADERS = "bench/"  # names under it are the benchmark's own, kept out of the product
+
+
 @cache
 def shader_source(name: str) -> str:
-    """Text of a GLSL file in ``shaders/``, read once and cached."""
-    return (shaders_dir() / name).read_text(encoding="utf-8")
+    """Text of a GLSL file in ``shaders/`` (or, named ``bench/…``, of the benchmark's own
+    shaders in ``sand_editor/bench/shaders/``), read once and cached."""
+    if name.startswith(BENCH_SHADERS):
+        path = _PACKAGE_DIR / "bench" / "shaders" / name[len(BENCH_SHADERS) :]
+    else:
+        path = shaders_dir() / name
+    return path.read_text(encoding="utf-8")

@@ -82,7 +82,7 @@ class ReferencePort:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self._ctx = ctx
-        self._program = fullscreen_program(ctx, "reference_port.frag")
+        self._program = fullscreen_program(ctx, "bench/reference_port.frag")
         self._targets: dict[int, tuple[moderngl.Framebuffer, list[moderngl.Texture]]] = {}
         self._size: int | None = None
 

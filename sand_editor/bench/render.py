@@ -23,11 +23,11 @@ import numpy as np
 
 from sand_editor.bench._report import report
 from sand_editor.bench.generator import machine_description
+from sand_editor.bench.probe import MaterialProbe
 from sand_editor.gl import drawing_into, standalone_context
 from sand_editor.preset import Preset
 from sand_editor.render.material import CLOSE_CUTOFF, SandMaterial
 from sand_editor.render.post import PostChain
-from sand_editor.render.probe import MaterialProbe
 from sand_editor.resources import bundled_preset
 
 DISTANCES = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
@@ -129,10 +129,10 @@ class Bench:
 
     def shade(self, distance, mode, glint_filter, view=0, shift=(0.0, 0.0)):
         """(lower half of the HDR image, ms) of the probe with a glint filter."""
-        self.material.glint_filter = glint_filter
-        self.material.ground_truth_samples = self.ground_truth_samples
+        self.probe.glint_filter = glint_filter
+        self.probe.ground_truth_samples = self.ground_truth_samples
         image, ms = self.probe.render(self.camera(distance, view, shift), mode, lower_half=True)
-        self.material.glint_filter = "ours"
+        self.probe.glint_filter = "ours"
         return image[self.probe.height // 2 :], ms
 
     def tone_mapped(self, hdr_lower_half: np.ndarray) -> np.ndarray:
@@ -170,7 +170,7 @@ class Bench:
                 if approach != "ground-truth":
                     row["ms"] = costs[approach]
                 per_approach[approach] = row
-            self.material.glint_filter = "ours"
+            self.probe.glint_filter = "ours"
             if distance in TARGET_DISTANCES:
                 for approach, value in self.flicker(distance).items():
                     per_approach[approach]["flicker"] = value
@@ -193,11 +193,11 @@ class Bench:
         times = {approach: [] for approach in APPROACHES}
         for round_ in range(self.repeats + 1):
             for approach in APPROACHES:
-                self.material.glint_filter = approach
+                self.probe.glint_filter = approach
                 ms = self.probe.render(camera, "close")[1]
                 if round_ > 0:  # the first round warms up
                     times[approach].append(ms)
-        self.material.glint_filter = "ours"
+        self.probe.glint_filter = "ours"
         return {approach: statistics.median(t) for approach, t in times.items()}
 
     def flicker(self, distance: float, frames: int = 4, views: int = 2) -> dict:
@@ -267,7 +267,7 @@ class Bench:
             ("full", "full", CLOSE_CUTOFF),
         ):
             self.material.close_cutoff = cutoff
-            self.material.glint_filter = "ours"
+            self.probe.glint_filter = "ours"
             camera = self.probe.camera(distance, pitch_deg=12.0)
             times = [self.probe.render(camera, mode)[1] for _ in range(self.repeats)]
             pitch_view[name] = statistics.median(times)

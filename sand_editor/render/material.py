@@ -29,21 +29,6 @@ from sand_editor.preset import Preset
 DEFAULT_TEXTURE_SIZE = 1024
 GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
 RIPPLE_MAP_SIZE = 256
-# Glint filters of shaders/sand_surface.glsl; all but "ours" exist only in the probe's program
-# variant (SAND_PROBE), for the benchmark: "expected" is the footprint moments' expected value
-# without the sparkle, "reference" the reference's N×N multisampling, "none" one finest tap, and
-# "ground-truth" every grain facet in the pixel; "ours-mean" and "ground-truth-mean" are the
-# expectations of "ours" and "ground-truth" over their draws (energy without the draws' noise).
-GLINT_FILTERS = {
-    "ours": 0,
-    "expected": 1,
-    "reference": 2,
-    "none": 3,
-    "ground-truth": 4,
-    "ours-mean": 5,
-    "ground-truth-mean": 6,
-}
-
 # Close-range work is skipped where the far term's blend weight is above this.
 CLOSE_CUTOFF = 0.999
 
@@ -115,8 +100,6 @@ class SandMaterial:
         self.texture_size = check_size(texture_size)
         self.preset: Preset | None = None
         self.average_albedo = np.zeros(3, dtype=np.float32)
-        self.glint_filter = "ours"
-        self.ground_truth_samples = 16
         self.close_cutoff = CLOSE_CUTOFF
         self._build = fullscreen_program(ctx, "material_build.frag")
         size = self.texture_size
@@ -286,8 +269,6 @@ class SandMaterial:
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
             u_texture_size=float(self.texture_size),
             u_max_lod=self.max_lod,
-            u_glint_filter=GLINT_FILTERS[self.glint_filter],
-            u_ground_truth_samples=int(self.ground_truth_samples),
             u_close_cutoff=float(self.close_cutoff),
             u_close_limit=self.close_limit,
         )

@@ -6,10 +6,10 @@ import moderngl
 import numpy as np
 import pytest
 
+from sand_editor.bench.probe import MaterialProbe
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import MODES
-from sand_editor.render.probe import MaterialProbe
 
 pytestmark = pytest.mark.gl
 
@@ -33,11 +33,11 @@ def probe(gl_ctx):
 @pytest.fixture(autouse=True)
 def _default_material(probe):
     probe.material.update(Preset())
-    probe.material.glint_filter = "ours"
-    probe.material.ground_truth_samples = 8
+    probe.glint_filter = "ours"
+    probe.ground_truth_samples = 8
     yield
     probe.material.update(Preset())
-    probe.material.glint_filter = "ours"
+    probe.glint_filter = "ours"
 
 
 def shade(probe, distance, mode="full", pitch=45.0, **options):
@@ -58,7 +58,7 @@ def test_glints_are_present_close_up(probe):
 
 def test_sparkles_concentrate_the_expected_glint_into_few_bright_pixels(probe):
     sparkles = shade(probe, 0.3, "glints") @ LUMINANCE
-    probe.material.glint_filter = "expected"
+    probe.glint_filter = "expected"
     expected = shade(probe, 0.3, "glints") @ LUMINANCE
     assert (expected > 0).mean() > 0.2
     assert 0 < (sparkles > 0).mean() < 0.2 * (expected > 0).mean()
@@ -122,7 +122,7 @@ def test_our_filtering_keeps_glint_energy_where_mipmapped_normals_lose_it(gl_ctx
     try:
         energies = {}
         for name in ("expected", "ours", "reference"):
-            material.glint_filter = name
+            probe.glint_filter = name
             frames = [shade(probe, 3.0, "glints", shift_px=(0.37 * t, 0.61 * t)) for t in range(4)]
             energies[name] = np.mean([frame.mean() for frame in frames])
     finally:
@@ -137,7 +137,7 @@ def test_our_filtering_keeps_glint_energy_where_mipmapped_normals_lose_it(gl_ctx
 
 def test_ours_flickers_less_than_no_filtering(probe):
     def change(name):
-        probe.material.glint_filter = name
+        probe.glint_filter = name
         frames = [
             shade(probe, 1.0, "glints", shift_px=(0.37 * t, 0.23 * t)) @ LUMINANCE for t in range(4)
         ]
@@ -200,7 +200,7 @@ def _sparkles(probe, camera, reference_frame=None):
 def test_sparkles_are_bright_few_and_where_the_expected_glint_is(probe):
     camera = probe.camera(0.3)
     sparkle = _sparkles(probe, camera)
-    probe.material.glint_filter = "expected"
+    probe.glint_filter = "expected"
     expected = _sparkles(probe, camera)
     lit = sparkle > 0
     assert 0 < lit.mean() < 0.2
@@ -252,7 +252,7 @@ def fine_probe(gl_ctx):
 def _lower_half_glints(probe, glint_filter, distance, views=4):
     from sand_editor.render.camera import camera_at_distance
 
-    probe.material.glint_filter = glint_filter
+    probe.glint_filter = glint_filter
     try:
         frames = []
         for view in range(views):
@@ -263,7 +263,7 @@ def _lower_half_glints(probe, glint_filter, distance, views=4):
             frames.append(image[36:])
         return np.stack(frames)
     finally:
-        probe.material.glint_filter = "ours"
+        probe.glint_filter = "ours"
 
 
 @pytest.mark.slow
@@ -287,7 +287,7 @@ def test_sparkles_appear_where_the_ground_truth_has_them_with_its_statistics(fin
 @pytest.mark.parametrize("glint_filter", ["ground-truth", "ours-mean", "ground-truth-mean"])
 @pytest.mark.parametrize(("distance", "pitch"), [(0.001, 45.0), (1000.0, 45.0), (1.0, 1.0)])
 def test_benchmark_filters_are_finite_at_hard_views(probe, glint_filter, distance, pitch):
-    probe.material.glint_filter = glint_filter
+    probe.glint_filter = glint_filter
     image = shade(probe, distance, "glints", pitch)
     assert image.min() >= 0.0
 
@@ -295,7 +295,7 @@ def test_benchmark_filters_are_finite_at_hard_views(probe, glint_filter, distanc
 @pytest.mark.slow
 def test_sparkles_flicker_no_more_than_the_ground_truth_under_sub_pixel_motion(fine_probe):
     def flicker(glint_filter):
-        fine_probe.material.glint_filter = glint_filter
+        fine_probe.glint_filter = glint_filter
         try:
             frames = np.stack(
                 [
@@ -306,7 +306,7 @@ def test_sparkles_flicker_no_more_than_the_ground_truth_under_sub_pixel_motion(f
                 ]
             )
         finally:
-            fine_probe.material.glint_filter = "ours"
+            fine_probe.glint_filter = "ours"
         return np.abs(np.diff(frames, axis=0)).mean() / frames.mean()
 
     ours, truth = flicker("ours"), flicker("ground-truth")

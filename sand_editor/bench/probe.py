@@ -1,4 +1,5 @@
-"""The material alone on a flat plane, rendered to HDR numpy arrays: the measuring instrument.
+"""The material alone on a flat plane, rendered to HDR numpy arrays: the benchmark's measuring
+instrument, with glint filters of its own that the product's programs do not contain.
 
 Terrain, sky and post-processing would only add noise to the measurement of the material's
 filtering, so the benchmark and the material's tests look at the plane.
@@ -15,6 +16,21 @@ from sand_editor.gl import drawing_into, program
 from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import mode_defines, mode_index
+
+# Glint filters of the probe's program (shaders/bench/sand_probe.glsl, as FILTER_* #defines):
+# "ours" is the product's; "expected" is the footprint moments' expected value without the
+# sparkle, "reference" the reference's N×N multisampling, "none" one finest tap, and
+# "ground-truth" every grain facet in the pixel; "ours-mean" and "ground-truth-mean" are the
+# expectations of "ours" and "ground-truth" over their draws (energy without the draws' noise).
+GLINT_FILTERS = {
+    "ours": 0,
+    "expected": 1,
+    "reference": 2,
+    "none": 3,
+    "ground-truth": 4,
+    "ours-mean": 5,
+    "ground-truth-mean": 6,
+}
 
 PLANE_HALF_EXTENT = 1.0e5  # metres: past the far plane of every probe view
 PLANE_INNER_RADIUS = 1.0e-5  # metres: the innermost ring of the plane's mesh
@@ -52,9 +68,14 @@ class MaterialProbe:
         self.material = material
         ctx = self.ctx = material.ctx
         self.width, self.height = width, height
+        self.glint_filter = "ours"
+        self.ground_truth_samples = 16  # K: the ground truth's K×K albedo and slope samples
         # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz;
         # compiled with the benchmark's glint filters (SAND_PROBE), which production lacks.
-        defines = {**mode_defines(), "SAND_PROBE": 1}
+        filters = {
+            f"FILTER_{name.upper().replace('-', '_')}": v for name, v in GLINT_FILTERS.items()
+        }
+        defines = {**mode_defines(), "SAND_PROBE": 1, **filters}
         self.program = program(ctx, "terrain.glsl", defines)
         self.far_program = program(ctx, "terrain.glsl", {**defines, "SAND_FAR_ONLY": 1})
         self._buffer = ctx.buffer(plane_vertices().tobytes())
@@ -105,6 +126,11 @@ class MaterialProbe:
                     p[name].value = tuple(float(c) for c in value)
             p["u_mode"].value = mode_index(mode)
             self.material.bind(p)
+            own = {"u_glint_filter": GLINT_FILTERS[self.glint_filter],
+                   "u_ground_truth_samples": int(self.ground_truth_samples)}  # fmt: skip
+            for name, value in own.items():
+                if name in p:  # the far-only variant has no glints
+                    p[name].value = value
         with drawing_into(self.ctx, self._fbo):
             self.ctx.viewport = (0, 0, self.width, self.height)
             self.ctx.enable(moderngl.DEPTH_TEST)
