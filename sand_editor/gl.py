@@ -12,7 +12,7 @@ from functools import cache
 
 import moderngl
 
-from sand_editor.resources import shader_source
+from sand_editor.resources import bench_shaders_dir, shader_source, shaders_dir
 
 REQUIRED_GL_VERSION = 330
 _local = threading.local()
@@ -185,6 +185,32 @@ def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
         lines = "".join(f"#define {key} {value}\n" for key, value in defines.items())
         source = f"{header}\n{lines}{body}"
     return source
+
+
+_UNIFORM = re.compile(r"^[ \t]*uniform[ \t]+\w+[ \t]+(\w+)", re.M)
+
+
+class UniformError(KeyError):
+    """A uniform that no shader declares: a misspelt name, never an optimised-out one."""
+
+
+@cache
+def declared_uniforms() -> frozenset[str]:
+    """Every uniform name declared by a shader file the product or its benchmark ships."""
+    files = [*shaders_dir().glob("*.*"), *bench_shaders_dir().glob("*.*")]
+    return frozenset(
+        name for path in files for name in _UNIFORM.findall(path.read_text(encoding="utf-8"))
+    )
+
+
+def set_uniform(program, name: str, value) -> None:
+    """Set a uniform the compiler kept: one a shader declares but this program does not use (an
+    optimised-out one, or one of another variant) is skipped; one that no shader declares raises
+    ``UniformError``, so a misspelt name is never skipped silently."""
+    if name in program:
+        program[name].value = value
+    elif name not in declared_uniforms():
+        raise UniformError(f"no shader declares the uniform {name!r}")
 
 
 def program(ctx: moderngl.Context, name: str, defines: Mapping[str, object] | None = None):

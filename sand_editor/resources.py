@@ -48,12 +48,17 @@ def bundled_preset(name: str) -> Path:
 BENCH_SHADERS = "bench/"  # names under it are the benchmark's own, kept out of the product
 
 
+def bench_shaders_dir() -> Path:
+    """The benchmark's own shaders (named ``bench/…``): inside the package in both layouts."""
+    return _PACKAGE_DIR / "bench" / "shaders"
+
+
 @cache
 def shader_source(name: str) -> str:
     """Text of a GLSL file in ``shaders/`` (or, named ``bench/…``, of the benchmark's own
     shaders in ``sand_editor/bench/shaders/``), read once and cached."""
     if name.startswith(BENCH_SHADERS):
-        path = _PACKAGE_DIR / "bench" / "shaders" / name[len(BENCH_SHADERS) :]
+        path = bench_shaders_dir() / name[len(BENCH_SHADERS) :]
     else:
         path = shaders_dir() / name
     return path.read_text(encoding="utf-8")

@@ -14,7 +14,7 @@
 uniform sampler2D u_normal_height;   // generator output: normal xyz, height
 uniform usampler2D u_layer_grain;    // generator output: layer + 1 (0 in gaps), grain word
 uniform vec3 u_base_color;           // linear
-uniform vec3 u_layer_colors[60];     // linear, 15 layers × 4 palette entries
+uniform vec3 u_layer_colors[LAYER_COLOURS];  // linear, layers × 4 palette entries (#defined)
 uniform uvec3 u_colour_thresholds;   // 16-bit colour pick bounds (noise.colour_thresholds)
 uniform float u_glint_mu;
 uniform float u_glint_sigma;
@@ -24,7 +24,6 @@ layout(location = 1) out vec4 out_glint;
 layout(location = 2) out vec4 out_spread;
 layout(location = 3) out float out_hole;
 
-const float HOLE_SCALE2 = 0.25;   // s₀², as in sand_surface.glsl
 
 
 void main() {

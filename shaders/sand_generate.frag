@@ -3,7 +3,7 @@
 // Layered, thresholded, tileable 2D Worley grains: the GLSL twin of
 // sand_editor/generator/reference.py (see noise.py for the model). Every constant and every step
 // here mirrors that file; change both together. PROFILE_OFFSET, PROFILE_SCALE and ANCHOR_DEPTH
-// are #defined from noise.py when the program is built.
+// (and KEY_STRIDE, ANCHOR0, ANCHOR1) are #defined from noise.py when the program is built.
 
 uniform int u_size;          // texture edge in pixels
 uniform int u_period;        // cells per tile edge
@@ -18,9 +18,6 @@ uniform float u_jitter;
 layout(location = 0) out vec4 out_normal_height;
 layout(location = 1) out uvec2 out_layer_grain; // layer + 1 (0 in gaps), grain word
 
-const vec2 ANCHOR0 = vec2(0.25);
-const vec2 ANCHOR1 = vec2(0.75);
-
 
 // One feature point of neighbour cell o of the pixel's cell: its offset to the pixel p − f (in
 // cells), its squared 3D distance, and its word. Point k of a cell sits around anchor k.
@@ -30,7 +27,7 @@ Point feature_point(ivec2 o, int k, ivec2 cell, vec2 frac, int layer) {
     ivec2 c = cell + o;  // wrap into the tile without the slow integer modulo
     c += (ivec2(lessThan(c, ivec2(0))) - ivec2(greaterThanEqual(c, ivec2(u_period)))) * u_period;
     // One 32-bit word per point: x, y, depth and glint value, 8 bits each (noise.py).
-    uint key = (uint(c.y) * uint(u_period) + uint(c.x)) * 32u + uint(layer) * 2u + uint(k);
+    uint key = (uint(c.y) * uint(u_period) + uint(c.x)) * KEY_STRIDE + uint(layer) * 2u + uint(k);
     uint word = lowbias32(key ^ u_seed_key);
     vec2 anchor = k == 0 ? ANCHOR0 : ANCHOR1;
     // Bytes placed in the top of a float's mantissa: 1 + byte/256 exactly, without an

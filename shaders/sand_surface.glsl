@@ -65,7 +65,7 @@ const float GLINT_GAIN = REFERENCE_GLINT_GAIN * 7.38905609893;  // e^(5·0.4)
 const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
 const float MIN_FACING = 0.05;       // least n·v of a shading normal
-const float HOLE_SCALE2 = 0.25;      // s₀², width² of the slope hole probe (material_build.frag)
+// HOLE_SCALE2, s₀², the width² of the slope hole the moments record, is #defined by material.py.
 
 float blend_weight(float distance_m) {
     // Clamped so exp() never overflows at 1 km with a steep sigmoid.

@@ -52,7 +52,7 @@ void main() {
     s.uv = v_uv;
     vec3 radiance = shade_sand(s, scene_lighting(), u_mode);
     // Half floats overflow to inf past 65504, and bloom would smear an inf over the frame.
-    out_radiance = vec4(clamp(radiance, 0.0, 60000.0), 1.0);
+    out_radiance = vec4(clamp(radiance, 0.0, MAX_HALF), 1.0);
 }
 
 #endif

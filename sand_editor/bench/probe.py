@@ -12,10 +12,10 @@ import time
 import moderngl
 import numpy as np
 
-from sand_editor.gl import drawing_into, program
+from sand_editor.gl import drawing_into, program, set_uniform
 from sand_editor.render.camera import Camera, camera_at_distance
-from sand_editor.render.material import SandMaterial
-from sand_editor.render.modes import mode_defines, mode_index
+from sand_editor.render.material import SandMaterial, surface_defines
+from sand_editor.render.modes import mode_index
 
 # Glint filters of the probe's program (shaders/bench/sand_probe.glsl, as FILTER_* #defines):
 # "ours" is the product's; "expected" is the footprint moments' expected value without the
@@ -75,7 +75,7 @@ class MaterialProbe:
         filters = {
             f"FILTER_{name.upper().replace('-', '_')}": v for name, v in GLINT_FILTERS.items()
         }
-        defines = {**mode_defines(), "SAND_PROBE": 1, **filters}
+        defines = surface_defines(SAND_PROBE=1, **filters)
         self.program = program(ctx, "terrain.glsl", defines)
         self.far_program = program(ctx, "terrain.glsl", {**defines, "SAND_FAR_ONLY": 1})
         self._buffer = ctx.buffer(plane_vertices().tobytes())
@@ -122,15 +122,13 @@ class MaterialProbe:
             p["u_view_projection"].write(camera.view_projection.T.astype(np.float32).tobytes())
             p["u_origin"].value = (0.0, 0.0, 0.0)
             for name, value in lights.items():
-                if name in p:
-                    p[name].value = tuple(float(c) for c in value)
+                set_uniform(p, name, tuple(float(c) for c in value))
             p["u_mode"].value = mode_index(mode)
             self.material.bind(p)
             own = {"u_glint_filter": GLINT_FILTERS[self.glint_filter],
                    "u_ground_truth_samples": int(self.ground_truth_samples)}  # fmt: skip
             for name, value in own.items():
-                if name in p:  # the far-only variant has no glints
-                    p[name].value = value
+                set_uniform(p, name, value)  # the far-only variant has no glints
         with drawing_into(self.ctx, self._fbo):
             self.ctx.viewport = (0, 0, self.width, self.height)
             self.ctx.enable(moderngl.DEPTH_TEST)

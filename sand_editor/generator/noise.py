@@ -135,6 +135,11 @@ SHADER_DEFINES = {
     "PROFILE_OFFSET": repr(PROFILE_OFFSET),
     "PROFILE_SCALE": repr(PROFILE_SCALE),
     "ANCHOR_DEPTH": repr(ANCHOR_DEPTH),
+    "KEY_STRIDE": f"{KEY_STRIDE}u",
+    **{
+        f"ANCHOR{k}": "vec2({!r}, {!r})".format(*(float(c) for c in anchor))
+        for k, anchor in enumerate(POINT_ANCHORS)
+    },
 }
 
 

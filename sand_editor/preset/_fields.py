@@ -18,6 +18,9 @@ from sand_editor.preset._color import Color
 from sand_editor.preset._errors import PresetError
 
 Kind = Literal["float", "int", "color", "colors", "weights", "text"]
+# What a change of the field costs the renderer: new grain textures, new glint moments (built
+# from the grains), or only a uniform of the same name with a ``u_`` prefix.
+Cost = Literal["grains", "moments", "uniform", "none"]
 
 
 @dataclass(frozen=True)
@@ -41,8 +44,10 @@ class FieldSpec:
         One line saying what the field does.
     unit
         Unit for display (``"m"``, ``"1/m"``), empty when the value has none.
-    regenerates
-        True when changing the field needs new textures; False when it is a shader uniform.
+    cost
+        What a change costs: ``"grains"`` (new textures: every generation field), ``"moments"``
+        (new glint moments, and a uniform), ``"uniform"`` (the shader uniform ``u_<name>``
+        alone) or ``"none"`` (not shown by the renderer: name, description).
     count
         Number of elements for ``"colors"`` and ``"weights"``.
     odd
@@ -59,10 +64,20 @@ class FieldSpec:
     label: str
     doc: str
     unit: str = ""
-    regenerates: bool = False
+    cost: Cost = "none"
     count: int = 0
     odd: bool = False
     multiline: bool = False
+
+    @property
+    def regenerates(self) -> bool:
+        """Changing the field needs new grain textures."""
+        return self.cost == "grains"
+
+    @property
+    def uniform(self) -> str | None:
+        """The shader uniform that carries the field (``u_<name>``), or None."""
+        return f"u_{self.name}" if self.cost in ("uniform", "moments") else None
 
     @property
     def section(self) -> str:
@@ -193,11 +208,12 @@ _TO_JSON: dict[str, Callable[[Any], Any]] = {
 
 def _generation(name: str, *spec: Any, **extra: Any) -> FieldSpec:
     # Generation fields feed the texture generator, so any change means new textures.
-    return FieldSpec(f"generation.{name}", *spec, regenerates=True, **extra)
+    return FieldSpec(f"generation.{name}", *spec, cost="grains", **extra)
 
 
-def _shading(name: str, *spec: Any, **extra: Any) -> FieldSpec:
-    return FieldSpec(f"shading.{name}", *spec, **extra)
+def _shading(name: str, *spec: Any, cost: Cost = "uniform", **extra: Any) -> FieldSpec:
+    # Shading fields are uniforms of the material's shaders, named u_<name>.
+    return FieldSpec(f"shading.{name}", *spec, cost=cost, **extra)
 
 
 _hex = Color.from_hex
@@ -232,9 +248,11 @@ FIELDS: tuple[FieldSpec, ...] = (
     _shading("glint_shininess", "float", 0.1, 1000.0, 10.4, "Glint shininess",
              "Phong exponent of a grain's highlight; higher is a smaller, sharper glint."),
     _shading("glint_sigma", "float", 0.001, 10.0, 0.277, "Glint sigma",
-             "Width of the Gaussian over grain glint values that picks which grains sparkle."),
+             "Width of the Gaussian over grain glint values that picks which grains sparkle.",
+             cost="moments"),
     _shading("glint_mu", "float", -10.0, 10.0, 2.0, "Glint mu",
-             "Centre of that Gaussian; nearer the grain values (0 to 1) means more glints."),
+             "Centre of that Gaussian; nearer the grain values (0 to 1) means more glints.",
+             cost="moments"),
     _shading("sample_count", "int", 1, 15, 7, "Samples",
              "Glint filter size: the footprint of N×N samples (odd) at close range.", odd=True),
     _shading("sample_spread", "float", 0.0, 4.0, 0.305, "Sample spread",

@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from sand_editor.preset._checks import describe, type_name
-from sand_editor.preset._color import Color
 from sand_editor.preset._document import SECTIONS, decode, encode
 from sand_editor.preset._errors import PresetError
 from sand_editor.preset._fields import FIELDS, field_spec, section_fields, unknown_field
@@ -31,53 +30,36 @@ class _Section:
             object.__setattr__(self, spec.name, spec.check(getattr(self, spec.name)))
 
 
-@dataclass(frozen=True)
-class Generation(_Section):
+def _section_class(name: str, section: str, doc: str) -> type:
+    """A frozen dataclass with one attribute per field of ``section`` in the field table, so
+    that a new field is declared in the table alone."""
+    return dataclasses.make_dataclass(
+        name,
+        [(spec.name, Any, field(default=spec.default)) for spec in section_fields(section)],
+        bases=(_Section,),
+        frozen=True,
+        namespace={"SECTION": section, "__doc__": doc, "__module__": __name__},
+    )
+
+
+Generation = _section_class(
+    "Generation",
+    "generation",
     """Parameters of the grain textures; changing any of them means generating new textures.
 
     Defaults are the reference's saved material; see :data:`FIELDS` for ranges and meaning.
     Hashable, so generated textures can be cached on it.
-    """
-
-    SECTION: ClassVar[str] = "generation"
-
-    layers: int = _default("generation.layers")
-    threshold: float = _default("generation.threshold")
-    roundness: float = _default("generation.roundness")
-    seed: int = _default("generation.seed")
-    base_color: Color = _default("generation.base_color")
-    colors: tuple[Color, Color, Color, Color] = _default("generation.colors")
-    weights: tuple[float, float, float, float] = _default("generation.weights")
-    layer_darkness: float = _default("generation.layer_darkness")
-    jitter: float = _default("generation.jitter")
-    period: int = _default("generation.period")
-
-
-@dataclass(frozen=True)
-class Shading(_Section):
-    """Shader parameters; changing them only updates uniforms.
+    """,
+)
+Shading = _section_class(
+    "Shading",
+    "shading",
+    """Shader parameters; each field's ``cost`` says what a change redoes (a uniform, or the
+    glint moments).
 
     Defaults are the reference's saved preview material; see :data:`FIELDS`.
-    """
-
-    SECTION: ClassVar[str] = "shading"
-
-    glint_shininess: float = _default("shading.glint_shininess")
-    glint_sigma: float = _default("shading.glint_sigma")
-    glint_mu: float = _default("shading.glint_mu")
-    sample_count: int = _default("shading.sample_count")
-    sample_spread: float = _default("shading.sample_spread")
-    sss: float = _default("shading.sss")
-    scattering: float = _default("shading.scattering")
-    absorption: float = _default("shading.absorption")
-    fresnel_roughness: float = _default("shading.fresnel_roughness")
-    transmission: float = _default("shading.transmission")
-    transmission_roughness: float = _default("shading.transmission_roughness")
-    ripple_strength: float = _default("shading.ripple_strength")
-    detail_strength: float = _default("shading.detail_strength")
-    sigmoid_a: float = _default("shading.sigmoid_a")
-    sigmoid_b: float = _default("shading.sigmoid_b")
-    uv_scale: float = _default("shading.uv_scale")
+    """,
+)
 
 
 _SECTION_TYPES: dict[str, type] = {"generation": Generation, "shading": Shading}

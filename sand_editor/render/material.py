@@ -23,8 +23,10 @@ from sand_editor.gl import (
     fullscreen_program,
     read_without_gil,
     release_program,
+    set_uniform,
 )
-from sand_editor.preset import Preset
+from sand_editor.preset import FIELDS, Preset
+from sand_editor.render.modes import mode_defines
 
 DEFAULT_TEXTURE_SIZE = 1024
 GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
@@ -32,24 +34,22 @@ RIPPLE_MAP_SIZE = 256
 # Close-range work is skipped where the far term's blend weight is above this.
 CLOSE_CUTOFF = 0.999
 
-_SHADING_UNIFORMS = {
-    "glint_shininess": "u_glint_shininess",
-    "glint_mu": "u_glint_mu",
-    "glint_sigma": "u_glint_sigma",
-    "sample_count": "u_sample_count",
-    "sample_spread": "u_sample_spread",
-    "sss": "u_sss",
-    "scattering": "u_scattering",
-    "absorption": "u_absorption",
-    "fresnel_roughness": "u_fresnel_roughness",
-    "transmission": "u_transmission",
-    "transmission_roughness": "u_transmission_roughness",
-    "ripple_strength": "u_ripple_strength",
-    "detail_strength": "u_detail_strength",
-    "sigmoid_a": "u_sigmoid_a",
-    "sigmoid_b": "u_sigmoid_b",
-    "uv_scale": "u_uv_scale",
+# From the field table: the uniform of every shading field, and the fields whose change needs
+# new glint moments (built from the grains by material_build.frag).
+_SHADING_FIELDS = tuple(spec for spec in FIELDS if spec.section == "shading" and spec.uniform)
+_MOMENT_FIELDS = tuple(spec for spec in _SHADING_FIELDS if spec.cost == "moments")
+# Width² of the slope hole that the moments record and the surface shader reads back.
+HOLE_SCALE2 = 0.25
+# Constants the material's shaders share with Python, as #defines: never copied by hand.
+SHADER_DEFINES = {
+    "HOLE_SCALE2": repr(HOLE_SCALE2),
+    "LAYER_COLOURS": MAX_LAYERS * 4,
 }
+
+
+def surface_defines(**extra) -> dict:
+    """The #defines of a program that includes shaders/sand_surface.glsl."""
+    return {**mode_defines(), **SHADER_DEFINES, **extra}
 
 
 def _periodic_gradient(height: np.ndarray) -> np.ndarray:
@@ -101,7 +101,7 @@ class SandMaterial:
         self.preset: Preset | None = None
         self.average_albedo = np.zeros(3, dtype=np.float32)
         self.close_cutoff = CLOSE_CUTOFF
-        self._build = fullscreen_program(ctx, "material_build.frag")
+        self._build = fullscreen_program(ctx, "material_build.frag", SHADER_DEFINES)
         size = self.texture_size
         # Made once and drawn over by every generation: a material owns a fixed set of objects.
         self._grains = GpuSandTextures.allocate(ctx, size)
@@ -177,7 +177,7 @@ class SandMaterial:
                         between_bands()
                     if cancelled is not None and cancelled():
                         return False
-        build_key = (generation, preset.shading.glint_mu, preset.shading.glint_sigma)
+        build_key = (generation, *(preset.get(spec.path) for spec in _MOMENT_FIELDS))
         if self._built_for != build_key:
             self._build_textures(preset)
             self._built_for = build_key
@@ -219,8 +219,8 @@ class SandMaterial:
         program["u_colour_thresholds"].value = tuple(
             int(t) for t in colour_thresholds(nc.cumulative_weights)
         )
-        program["u_glint_mu"].value = preset.shading.glint_mu
-        program["u_glint_sigma"].value = preset.shading.glint_sigma
+        for spec in _MOMENT_FIELDS:
+            program[spec.uniform].value = preset.get(spec.path)
         with drawing_into(self.ctx, self._build_fbo):
             self.ctx.viewport = (0, 0, self.texture_size, self.texture_size)
             draw_fullscreen(self.ctx, program)
@@ -260,11 +260,9 @@ class SandMaterial:
         # these bindings (a surface drawn in near and far passes) then never disagree.
         for offset, (name, texture) in enumerate(units.items()):
             texture.use(location=first_unit + offset)
-            if name in program:
-                program[name].value = first_unit + offset
+            set_uniform(program, name, first_unit + offset)
         unit = first_unit + len(units)
-        shading = self.preset.shading
-        values = {uniform: getattr(shading, field) for field, uniform in _SHADING_UNIFORMS.items()}
+        values = {spec.uniform: self.preset.get(spec.path) for spec in _SHADING_FIELDS}
         values.update(
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
             u_texture_size=float(self.texture_size),
@@ -273,8 +271,7 @@ class SandMaterial:
             u_close_limit=self.close_limit,
         )
         for name, value in values.items():
-            if name in program:
-                program[name].value = value
+            set_uniform(program, name, value)
         return unit
 
     def release(self) -> None:

@@ -9,7 +9,13 @@ from __future__ import annotations
 
 import moderngl
 
-from sand_editor.gl import draw_fullscreen, drawing_into, fullscreen_program, release_program
+from sand_editor.gl import (
+    draw_fullscreen,
+    drawing_into,
+    fullscreen_program,
+    release_program,
+    set_uniform,
+)
 
 BLOOM_LEVELS = 5
 DEFAULT_BLOOM_STRENGTH = 0.04
@@ -130,9 +136,3 @@ class PostChain:
         self._release_targets()
         for program in (self._downsample, self._upsample, self._resolve):
             release_program(program)
-
-
-def set_uniform(program, name: str, value) -> None:
-    """Set a uniform the compiler kept; an unused one is optimised out, which is not an error."""
-    if name in program:
-        program[name].value = value

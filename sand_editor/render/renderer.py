@@ -11,10 +11,11 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from sand_editor.gl import drawing_into, program
+from sand_editor.gl import drawing_into, program, set_uniform
 from sand_editor.render.camera import Camera
-from sand_editor.render.modes import check_mode, mode_defines, mode_index
-from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain, set_uniform
+from sand_editor.render.material import surface_defines
+from sand_editor.render.modes import check_mode, mode_index
+from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain
 from sand_editor.render.sky import SKY_GRADIENT_EXPONENT, SkyState
 from sand_editor.render.terrain import DuneTerrain, sphere_mesh
 
@@ -92,8 +93,8 @@ class SandRenderer:
         self.post = PostChain(ctx)
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
         # shades what lies within the material's close range, the far one only the far term.
-        self._surface = program(ctx, "terrain.glsl", mode_defines())
-        self._surface_far = program(ctx, "terrain.glsl", {**mode_defines(), "SAND_FAR_ONLY": 1})
+        self._surface = program(ctx, "terrain.glsl", surface_defines())
+        self._surface_far = program(ctx, "terrain.glsl", surface_defines(SAND_FAR_ONLY=1))
         self._surfaces = (self._surface, self._surface_far)
         self._sky = program(ctx, "sky.glsl")
         self._sky_vao = ctx.vertex_array(self._sky, [])
