@@ -104,7 +104,7 @@ def _render_scale(text: str) -> float:
 
 
 def _day_speed(text: str) -> float:
-    from sand_editor.vr.link import MAX_DAY_SPEED
+    from sand_editor.view import MAX_DAY_SPEED
 
     try:
         value = float(text)

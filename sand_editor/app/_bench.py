@@ -130,7 +130,7 @@ class EditorBench:
         rows.append(self._drive("3D orbit", 16, lambda i: panel.view.orbited.emit(1.5, 0.0)))
         rows.append(self._drive("3D edits", 30, self._slider_drag))
         self.slider.setSliderDown(False)
-        panel.day_speed.setValue(3600)
+        panel.day_speed.setValue(1.0)  # an hour a second
         rows.append(self._drive("3D clock", 1000, lambda i: None))
         panel.day_speed.setValue(0)
         return rows

@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (
 from sand_editor.app._view3d import View3DPanel
 from sand_editor.generator import SandTextures
 from sand_editor.generator.noise import MAX_LAYERS, linear_to_srgb
+from sand_editor.view import ViewModel
 
 CHANNELS = ("Albedo", "Normals", "Glint", "Layers")
 TAB_3D = "3D"
@@ -78,11 +79,11 @@ class PreviewPanel(QWidget):
 
     size_changed = Signal(int)
 
-    def __init__(self, parent: QWidget | None = None, model=None):
+    def __init__(self, parent: QWidget | None = None, model=None, view_model=None):
         super().__init__(parent)
         self._model = model
+        self.view_model = view_model if view_model is not None else ViewModel()
         self.view3d = None  # the 3D panel, made when its tab is first shown
-        self.view3d_state: dict = {}  # settings the 3D panel starts with (remembered ones)
         self._textures: SandTextures | None = None
         # The latest full tile and its generation parameters, for the 3D view.
         self._grains: tuple[SandTextures, object] | None = None
@@ -155,8 +156,7 @@ class PreviewPanel(QWidget):
         if is_3d and self.view3d is None:
             # Made on demand: an OpenGL widget turns the whole window into a GL-composited one,
             # which an editor that never opens this tab does not need to pay for.
-            self.view3d = View3DPanel(self._model)
-            self.view3d.apply_state(self.view3d_state)
+            self.view3d = View3DPanel(self._model, self.view_model)
             if self._grains is not None:
                 self.view3d.view.set_grains(*self._grains)
             self.pages.addWidget(self.view3d)

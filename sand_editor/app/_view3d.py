@@ -1,11 +1,11 @@
 """The 3D tab: a ``SandView`` of the desert in the current preset's sand, with camera,
-time-of-day and mode controls that follow the preset model."""
+time-of-day and mode controls bound to the window's ``ViewModel`` (sand_editor.view)."""
 
 from __future__ import annotations
 
 import math
 
-from PySide6.QtCore import QElapsedTimer, Qt, QTimer
+from PySide6.QtCore import QSignalBlocker, Qt, QTimer
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -24,27 +24,43 @@ from sand_editor.app._model import PresetModel
 from sand_editor.app._sand_view import SandView
 from sand_editor.gl import release_standalone_context
 from sand_editor.render.modes import MODE_HELP, MODES
-from sand_editor.render.sky import advance
+from sand_editor.view import (
+    CLOCK,
+    MAX_DAY_SPEED,
+    MAX_DISTANCE_M,
+    MIN_DISTANCE_M,
+    REAL_TIME,
+    ViewModel,
+    ViewState,
+    format_time,
+)
 
 CONTROLS_REFRESH_MS = 250
-MIN_DISTANCE_M = 1e-3
-MAX_DISTANCE_M = 100.0
 DISTANCE_STEPS = 1000  # slider positions across the log range
 DAY_TICK_MS = 33
-MAX_DAY_SPEED = 86_400
-
-
-def format_time(time_hours: float) -> str:
-    minutes = int(round(time_hours * 60.0)) % (24 * 60 + 1)
-    return f"{minutes // 60:02d}:{minutes % 60:02d}"
+# Changes whose controls are redrawn a few times a second rather than at once (a drag in the view,
+# the running clock): each redraw of the controls costs a composition of the window.
+_DRAG = "drag"
+# What the view draws, by the view model's field names.
+_VIEW_FIELDS = {
+    "distance_m": "distance_m",
+    "pitch_deg": "pitch_deg",
+    "heading_deg": "heading_deg",
+    "hours": "time_hours",
+    "mode": "mode",
+    "show_sphere": "show_sphere",
+}
 
 
 class View3DPanel(QWidget):
     """The 3D tab: a bar of controls above a ``SandView`` following the preset model."""
 
-    def __init__(self, model: PresetModel, parent: QWidget | None = None):
+    def __init__(
+        self, model: PresetModel, view_model: ViewModel | None = None, parent: QWidget | None = None
+    ):
         super().__init__(parent)
         self.model = model
+        self.view_model = view_model if view_model is not None else ViewModel()
         self.view = SandView(model.preset, self)
         self.view.setObjectName("view3d")
 
@@ -68,11 +84,16 @@ class View3DPanel(QWidget):
         self.time_slider = QSlider(Qt.Orientation.Horizontal, objectName="view3d-time")
         self.time_slider.setRange(0, 24 * 60)
         self.time_label = QLabel(objectName="view3d-time-label")
-        self.day_speed = QSpinBox(objectName="view3d-day-speed")
-        self.day_speed.setRange(0, MAX_DAY_SPEED)
+        self.day_speed = QDoubleSpinBox(objectName="view3d-day-speed")
+        self.day_speed.setRange(0.0, MAX_DAY_SPEED)
+        self.day_speed.setDecimals(4)
+        self.day_speed.setStepType(QDoubleSpinBox.StepType.AdaptiveDecimalStepType)
         self.day_speed.setSpecialValueText("paused")
-        self.day_speed.setSuffix("×")
-        self.day_speed.setToolTip("Simulated seconds per real second; 0 stops the clock.")
+        self.day_speed.setSuffix(" h/s")
+        self.day_speed.setToolTip(
+            "Simulated hours per real second (as in VR); 0 pauses the day. "
+            f"Real time is {REAL_TIME:.6f} h/s, a day a second 24 h/s."
+        )
         self.mode_combo = QComboBox(objectName="view3d-mode")
         for mode in MODES:
             self.mode_combo.addItem(mode, mode)
@@ -122,7 +143,6 @@ class View3DPanel(QWidget):
         self._timings: dict | None = None
         self._controls_timer = QTimer(self, singleShot=True, interval=CONTROLS_REFRESH_MS)
         self._controls_timer.timeout.connect(self._refresh_controls)
-        self._clock = QElapsedTimer()
         self.day_timer = QTimer(self, interval=DAY_TICK_MS)
         self.day_timer.timeout.connect(self._tick)
 
@@ -130,77 +150,69 @@ class View3DPanel(QWidget):
             lambda step: self.set_distance(_distance_of_step(step))
         )
         self.distance_spin.valueChanged.connect(self.set_distance)
-        self.pitch_slider.valueChanged.connect(self._pitch_changed)
-        self.heading_spin.valueChanged.connect(lambda deg: self.view.set_view(heading_deg=deg))
-        self.time_slider.valueChanged.connect(self._time_slider_changed)
-        self.day_speed.valueChanged.connect(self._update_day_timer)
+        self.pitch_slider.valueChanged.connect(lambda deg: self._set(pitch_deg=float(deg)))
+        self.heading_spin.valueChanged.connect(lambda deg: self._set(heading_deg=float(deg)))
+        self.time_slider.valueChanged.connect(lambda minutes: self.set_time(minutes / 60.0))
+        self.day_speed.valueChanged.connect(self._day_speed_changed)
         self.mode_combo.currentIndexChanged.connect(
-            lambda: self.view.set_view(mode=self.mode_combo.currentData())
+            lambda: self._set(mode=self.mode_combo.currentData())
         )
-        self.sphere.toggled.connect(lambda on: self.view.set_view(show_sphere=on))
+        self.sphere.toggled.connect(lambda on: self._set(show_sphere=on))
         self.view.orbited.connect(self._orbit)
-        self.view.zoomed.connect(lambda factor: self.set_distance(self.view.distance_m * factor))
+        self.view.zoomed.connect(
+            lambda factor: self.set_distance(self.view_model.state.distance_m * factor)
+        )
         self.view.rendered.connect(self._frame_drawn)
         self.view.failed.connect(self.show_message)
         model.changed.connect(lambda preset, paths: self.view.set_preset(preset))
 
-        self.set_distance(self.view.distance_m)
-        self.pitch_slider.setValue(round(self.view.pitch_deg))
-        self._pitch_changed(self.pitch_slider.value())
-        self.set_time(self.view.time_hours)
+        self.view_model.connect(self._state_changed)
+        everything = frozenset(ViewState.__dataclass_fields__)
+        self._state_changed(self.view_model.state, everything, None)
 
     # -- controls ----------------------------------------------------------------------------------
 
-    def state(self) -> dict:
-        """Camera, clock, mode and sphere, as ``apply_state`` takes them (for QSettings)."""
-        view = self.view
-        return {
-            "distance_m": view.distance_m,
-            "pitch_deg": view.pitch_deg,
-            "heading_deg": view.heading_deg,
-            "time_hours": view.time_hours,
-            "mode": view.mode,
-            "show_sphere": view.show_sphere,
-            "day_speed": self.day_speed.value(),
-        }
-
-    def apply_state(self, values: dict) -> None:
-        """Set the controls (and so the view) from a ``state()`` dict; unknown or out-of-range
-        values are clamped or left at their current setting."""
-        if "distance_m" in values:
-            self.set_distance(values["distance_m"])
-        if "pitch_deg" in values:
-            self.pitch_slider.setValue(round(min(max(values["pitch_deg"], 1.0), 90.0)))
-        if "heading_deg" in values:
-            self.heading_spin.setValue(int(values["heading_deg"]) % 360)
-        if "time_hours" in values:
-            self.set_time(min(max(values["time_hours"], 0.0), 24.0))
-        if values.get("mode") in MODES:
-            self.mode_combo.setCurrentIndex(MODES.index(values["mode"]))
-        if "show_sphere" in values:
-            self.sphere.setChecked(bool(values["show_sphere"]))
-        if "day_speed" in values:
-            self.day_speed.setValue(int(values["day_speed"]))
+    def _set(self, **changes) -> None:
+        self.view_model.update(self, **changes)
 
     def set_distance(self, distance_m: float) -> None:
-        distance_m = min(max(float(distance_m), MIN_DISTANCE_M), MAX_DISTANCE_M)
-        for widget, value in (
-            (self.distance_slider, _step_of_distance(distance_m)),
-            (self.distance_spin, distance_m),
-        ):
-            widget.blockSignals(True)
-            widget.setValue(value)
-            widget.blockSignals(False)
-        self.view.set_view(distance_m=distance_m)
+        self._set(distance_m=float(distance_m))
 
     def set_time(self, time_hours: float) -> None:
         """Set the clock (hours since midnight); the slider shows it to the minute."""
-        time_hours = float(time_hours) % 24.0 if time_hours != 24.0 else 24.0
-        self.time_slider.blockSignals(True)
-        self.time_slider.setValue(round(time_hours * 60.0))
-        self.time_slider.blockSignals(False)
-        self.time_label.setText(format_time(time_hours))
-        self.view.set_view(time_hours=time_hours)
+        self._set(hours=float(time_hours))
+
+    def _day_speed_changed(self, speed: float) -> None:
+        # 0 pauses the day and keeps its speed for the next play, as the VR panel does.
+        if speed > 0:
+            self._set(day_speed=float(speed), playing=True)
+        else:
+            self._set(playing=False)
+
+    def _state_changed(self, state: ViewState, names: frozenset, source) -> None:
+        """Show the view model's new state: in the view always, in the controls at once when
+        someone else changed it (a drag or the running clock redraws them a few times a second)."""
+        self.view.set_view(
+            **{_VIEW_FIELDS[n]: getattr(state, n) for n in names if n in _VIEW_FIELDS}
+        )
+        if names & {"playing", "day_speed"}:
+            with QSignalBlocker(self.day_speed):
+                self.day_speed.setValue(state.day_speed if state.playing else 0.0)
+            self._update_day_timer()
+        if names & {"mode"}:
+            with QSignalBlocker(self.mode_combo):
+                self.mode_combo.setCurrentIndex(MODES.index(state.mode))
+        if names & {"show_sphere"}:
+            with QSignalBlocker(self.sphere):
+                self.sphere.setChecked(state.show_sphere)
+        if names & {"distance_m"}:
+            with QSignalBlocker(self.distance_slider), QSignalBlocker(self.distance_spin):
+                self.distance_slider.setValue(_step_of_distance(state.distance_m))
+                self.distance_spin.setValue(state.distance_m)
+        if source in (_DRAG, CLOCK):
+            self._refresh_controls_soon()
+        else:
+            self._refresh_controls()
 
     def show_message(self, text: str) -> None:
         self.day_timer.stop()
@@ -208,18 +220,10 @@ class View3DPanel(QWidget):
         self.stack.setCurrentWidget(self.message)
         self.status.setText("3D view unavailable")
 
-    def _pitch_changed(self, degrees: int) -> None:
-        self.pitch_label.setText(f"{degrees}°")
-        self.view.set_view(pitch_deg=float(degrees))
-
-    def _time_slider_changed(self, minutes: int) -> None:
-        self.set_time(minutes / 60.0)
-
     def _orbit(self, heading_delta: float, pitch_delta: float) -> None:
-        heading = (self.view.heading_deg + heading_delta) % 360.0
-        pitch = min(max(self.view.pitch_deg + pitch_delta, 1.0), 90.0)
-        self.view.set_view(heading_deg=heading, pitch_deg=pitch)
-        self._refresh_controls_soon()
+        state = self.view_model.state
+        self.view_model.update(_DRAG, heading_deg=state.heading_deg + heading_delta,
+                               pitch_deg=state.pitch_deg + pitch_delta)  # fmt: skip
 
     def _refresh_controls_soon(self) -> None:
         # Controls that follow a drag or the running clock are redrawn a few times a second,
@@ -228,17 +232,16 @@ class View3DPanel(QWidget):
             self._controls_timer.start()
 
     def _refresh_controls(self) -> None:
-        view = self.view
+        state = self.view_model.state
         for widget, value in (
-            (self.heading_spin, int(view.heading_deg) % 360),
-            (self.pitch_slider, round(view.pitch_deg)),
-            (self.time_slider, round(view.time_hours * 60.0)),
+            (self.heading_spin, int(state.heading_deg) % 360),
+            (self.pitch_slider, round(state.pitch_deg)),
+            (self.time_slider, round(state.hours * 60.0)),
         ):
-            widget.blockSignals(True)
-            widget.setValue(value)
-            widget.blockSignals(False)
-        self.pitch_label.setText(f"{round(view.pitch_deg)}°")
-        self.time_label.setText(format_time(view.time_hours))
+            with QSignalBlocker(widget):
+                widget.setValue(value)
+        self.pitch_label.setText(f"{round(state.pitch_deg)}°")
+        self.time_label.setText(format_time(state.hours))
         if self._timings is not None:
             self._show_timings(self._timings)
 
@@ -265,19 +268,16 @@ class View3DPanel(QWidget):
     # -- the running day ---------------------------------------------------------------------------
 
     def _update_day_timer(self) -> None:
-        running = self.day_speed.value() > 0 and self.isVisible() and self.view.error is None
+        state = self.view_model.state
+        running = state.playing and self.isVisible() and self.view.error is None
         if running and not self.day_timer.isActive():
-            self._clock.start()
+            self.view_model.tick(source=CLOCK)  # the time the tab was hidden, at once
             self.day_timer.start()
         elif not running:
             self.day_timer.stop()
 
     def _tick(self) -> None:
-        seconds = self._clock.restart() / 1000.0
-        self.view.set_view(
-            time_hours=advance(self.view.time_hours, seconds, self.day_speed.value())
-        )
-        self._refresh_controls_soon()
+        self.view_model.tick(source=CLOCK)
 
     def showEvent(self, event) -> None:
         # Qt makes its GLX contexts current from now on, which libglvnd refuses while a

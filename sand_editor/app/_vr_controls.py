@@ -1,23 +1,22 @@
 """The editor window's way into VR: the "View in VR" button and menu, the viewer's state beside
 it, what the editor says when the viewer cannot run, and the link's bindings to the preset model
-and to the 3D tab's time of day and mode (both ways, without echoes)."""
+and to the window's view model (time of day and mode, both ways, without echoes)."""
 
 from __future__ import annotations
 
-import time
-
 from PySide6.QtCore import QEvent, QObject, QTimer
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import QApplication, QLabel, QMainWindow, QMessageBox, QPushButton, QWidget
+from PySide6.QtWidgets import QApplication, QLabel, QMainWindow, QMessageBox, QPushButton
 
-from sand_editor.app._vr import LOG_HEADING, VrLink
+from sand_editor.app._vr import VrLink
+from sand_editor.app._vr_exit import LOG_HEADING
 from sand_editor.preset import Preset
+from sand_editor.view import CLOCK, MODES, ViewState
 from sand_editor.vr.link import (
     EXIT_INTERRUPTED,
     EXIT_NO_HEADSET,
     EXIT_NO_RUNTIME,
     EXIT_OK,
-    MAX_DAY_SPEED,
 )
 
 VR_SHORTCUT = "Ctrl+Shift+V"
@@ -30,10 +29,7 @@ BUTTON_STYLE = (
     " border-radius: 4px; background: #f6e7d2; }"
     " QToolButton:hover { background: #efd6b2; } QToolButton:pressed { background: #e4c393; }"
 )
-# What the viewer is told before the 3D tab exists: the 3D view's own starting values.
-DEFAULT_HOURS = 10.0
-DEFAULT_MODE = "full"
-
+_TIME_FIELDS = frozenset({"hours", "day_speed", "playing"})
 OFFER_DESKTOP = frozenset({EXIT_NO_RUNTIME, EXIT_NO_HEADSET})
 
 
@@ -54,13 +50,8 @@ class VrControls(QObject):
         self.link = VrLink(self)
         self.message_box: QMessageBox | None = None
         self.desktop_button: QPushButton | None = None
-        self._panel: QWidget | None = None
-        self._applying_remote = False
         self._close_window_after = False
-        # The viewer's time of day and mode as last known (day_speed in simulated hours per
-        # real second, kept while the day is paused), and when "hours" was true.
-        self._scene = dict(hours=DEFAULT_HOURS, day_speed=0.0, playing=False, mode=DEFAULT_MODE)
-        self._scene_clock = time.perf_counter()
+        self.view_model = window.view_model
 
         shortcut = QKeySequence(VR_SHORTCUT)
         self.action = QAction(START_TEXT, self, objectName="vr-action")
@@ -95,12 +86,11 @@ class VrControls(QObject):
         self.link.error.connect(self._on_error)
         self.link.finished.connect(self._on_finished)
         window.model.changed.connect(self._local_preset)
-        window.preview.tabs.currentChanged.connect(self._attach_panel)
+        self.view_model.connect(self._local_view_changed)
         app = QApplication.instance()
         if app is not None:
             app.aboutToQuit.connect(self.link.shutdown)
         window.installEventFilter(self)  # sees the window's close before the window does
-        self._attach_panel()
         self._show_state()
 
     # -- starting and stopping ----------------------------------------------------------------
@@ -117,10 +107,11 @@ class VrControls(QObject):
         if self.link.running:
             return
         self._close_message()
-        scene = self._local_scene()
-        self._update_scene(**scene)
-        start_scene = {**scene, "day_speed": scene["day_speed"] if scene["playing"] else 0.0}
-        self.link.start(self.window.model.preset, desktop=desktop, scene=start_scene)
+        self.view_model.tick()  # the clock as it is now, if it runs while the 3D tab is hidden
+        state = self.view_model.state
+        scene = {"hours": state.hours, "mode": state.mode,
+                 "day_speed": state.day_speed if state.playing else 0.0}  # fmt: skip
+        self.link.start(self.window.model.preset, desktop=desktop, scene=scene)
         self._show_state()
 
     def eventFilter(self, watched: QObject, event: QEvent) -> bool:
@@ -237,90 +228,22 @@ class VrControls(QObject):
         if self.link.running:
             self.link.send_preset(preset)
 
-    def _attach_panel(self, *_args) -> None:
-        panel = getattr(self.window.preview, "view3d", None)
-        if panel is None or panel is self._panel:
+    def _local_view_changed(self, state: ViewState, names: frozenset, source) -> None:
+        # The viewer runs its own clock: only set times go to it, not the ticks of ours.
+        if source is self or source == CLOCK or not self.link.running:
             return
-        self._panel = panel
-        panel.time_slider.valueChanged.connect(self._local_time_changed)
-        panel.day_speed.valueChanged.connect(self._local_time_changed)
-        panel.mode_combo.currentIndexChanged.connect(self._local_mode_changed)
-        if self.link.running:
-            # The panel is new and shows its defaults; the viewer's clock is the one running.
-            self._apply_to_panel(self._scene_now())
-
-    def _scene_now(self) -> dict:
-        """The viewer's time and mode as last known, its clock run on since then."""
-        scene = dict(self._scene)
-        if scene["playing"]:
-            elapsed = time.perf_counter() - self._scene_clock
-            scene["hours"] = (scene["hours"] + elapsed * scene["day_speed"]) % 24.0
-        return scene
-
-    def _update_scene(self, **fields) -> None:
-        if "hours" in fields or "playing" in fields or "day_speed" in fields:
-            self._scene["hours"] = self._scene_now()["hours"]
-            self._scene_clock = time.perf_counter()
-        self._scene.update(fields)
-
-    def _local_scene(self) -> dict:
-        """What the editor shows: the 3D tab's controls, or the last known scene without it."""
-        panel = self._panel
-        if panel is None:
-            return self._scene_now()
-        speed = min(panel.day_speed.value() / 3600.0, MAX_DAY_SPEED)
-        return {
-            "hours": float(panel.view.time_hours) % 24.0,
-            "day_speed": speed if speed > 0 else self._scene["day_speed"],
-            "playing": speed > 0,
-            "mode": panel.mode_combo.currentData(),
-        }
-
-    def _local_time_changed(self, *_args) -> None:
-        if self._applying_remote:
-            return
-        scene = self._local_scene()
-        fields = {key: scene[key] for key in ("hours", "day_speed", "playing")}
-        self._update_scene(**fields)
-        if self.link.running:
-            if not fields["day_speed"]:
-                del fields["day_speed"]  # never set: the viewer keeps its own
-            self.link.send_time(**fields)
-
-    def _local_mode_changed(self, *_args) -> None:
-        if self._applying_remote:
-            return
-        self._update_scene(mode=self._local_scene()["mode"])
-        if self.link.running:
-            self.link.send_mode(self._scene["mode"])
+        if names & _TIME_FIELDS:
+            self.link.send_time(hours=state.hours, day_speed=state.day_speed, playing=state.playing)
+        if "mode" in names:
+            self.link.send_mode(state.mode)
 
     # -- viewer → editor ----------------------------------------------------------------------
 
     def _remote_time(self, fields: dict) -> None:
-        self._update_scene(**fields)
-        self._apply_to_panel(fields)
+        self.view_model.update(self, **fields)
 
     def _remote_mode(self, mode: str) -> None:
-        if self._panel is not None and self._panel.mode_combo.findData(mode) < 0:
+        if mode not in MODES:
             self._on_error(f"the viewer switched to an unknown mode {mode!r}")
             return
-        self._update_scene(mode=mode)
-        self._apply_to_panel({"mode": mode})
-
-    def _apply_to_panel(self, fields: dict) -> None:
-        """Show the viewer's values in the 3D tab without sending them back."""
-        panel = self._panel
-        if panel is None:
-            return
-        self._applying_remote = True
-        try:
-            if "hours" in fields:
-                panel.set_time(fields["hours"])
-            if "playing" in fields or "day_speed" in fields:
-                playing = fields.get("playing", self._scene["playing"])
-                speed = self._scene["day_speed"] if playing else 0.0
-                panel.day_speed.setValue(round(speed * 3600.0))
-            if "mode" in fields:
-                panel.mode_combo.setCurrentIndex(panel.mode_combo.findData(fields["mode"]))
-        finally:
-            self._applying_remote = False
+        self.view_model.update(self, mode=mode)

@@ -28,6 +28,7 @@ from sand_editor.files import OutputError, write_atomic
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir
+from sand_editor.view import ViewModel
 
 _REGENERATING = frozenset(spec.path for spec in FIELDS if spec.regenerates)
 _FILE_FILTER = "Sand presets (*.json);;All files (*)"
@@ -74,7 +75,9 @@ class EditorWindow(QMainWindow):
         panel_scroll.setWidget(self.controls)
         panel_scroll.setWidgetResizable(True)
         panel_scroll.setMinimumWidth(self.controls.sizeHint().width() + 24)
-        self.preview = PreviewPanel(model=self.model)
+        # The camera, clock and mode: the 3D tab, the settings and the VR link share this model.
+        self.view_model = ViewModel()
+        self.preview = PreviewPanel(model=self.model, view_model=self.view_model)
         self.splitter = QSplitter(Qt.Orientation.Horizontal, self)
         self.splitter.addWidget(panel_scroll)
         self.splitter.addWidget(self.preview)
@@ -424,7 +427,8 @@ class EditorWindow(QMainWindow):
             return
         layout = self.settings.layout()
         # The tab first: the 3D tab's controls widen the window's minimum size.
-        self.preview.view3d_state = self.settings.view3d()
+        with self.view_model.blocked():  # nothing is listening yet that needs telling
+            self.view_model.update(self, **self.settings.view3d().to_dict())
         if layout["tab"] is not None and 0 <= layout["tab"] < self.preview.tabs.count():
             self.preview.tabs.setCurrentIndex(layout["tab"])
         if layout["geometry"] is not None:
@@ -443,8 +447,7 @@ class EditorWindow(QMainWindow):
             self.splitter.saveState(),
             self.preview.tabs.currentIndex(),
         )
-        if self.preview.view3d is not None:
-            self.settings.save_view3d(self.preview.view3d.state())
+        self.settings.save_view3d(self.view_model.state)
         self.settings.sync()
 
     # -- reactions -----------------------------------------------------------------------------

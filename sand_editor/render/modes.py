@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-MODES = ("full", "lambert", "close", "far", "blend", "glints", "normals", "mip", "reference-look")
+from sand_editor.view import MODES
+
 MODE_HELP = {
     "full": "the material: glints and grains close up, BRDF far away, blended by distance",
     "reference-look": "the full material with the reference's glints (its gain and distance boost"

@@ -38,12 +38,6 @@ def parse_time(text: str) -> float:
     raise ValueError(f"time of day must be 'HH:MM' from 00:00 to 23:59 (or 24:00), got {text!r}")
 
 
-def advance(time_hours: float, seconds: float, day_speed: float) -> float:
-    """The clock after ``seconds`` of real time run ``day_speed`` times faster than real time
-    (1 = real time, 3600 = an hour per second), wrapped to [0, 24)."""
-    return float((time_hours + seconds * day_speed / 3600.0) % 24.0)
-
-
 @dataclass(frozen=True)
 class SkyState:
     """Everything the renderer needs of the sky at one moment; vectors are float32 (3,)."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from sand_editor.vr.link import MAX_DAY_SPEED
+from sand_editor.view import MAX_DAY_SPEED, advance, wrap_hours
 from sand_editor.vr.xrmath import Pose
 
 STICK_DEAD_ZONE = 0.2
@@ -160,7 +160,7 @@ class ViewerControls:
         """The clock after ``seconds`` of real time (a paused day stands still)."""
         if not self.playing or not math.isfinite(seconds) or seconds <= 0:
             return self
-        return replace(self, hours=(self.hours + seconds * self.day_speed) % 24.0)
+        return replace(self, hours=advance(self.hours, seconds, self.day_speed))
 
 
 def apply_command(controls: ViewerControls, command: Command) -> ViewerControls:
@@ -168,7 +168,7 @@ def apply_command(controls: ViewerControls, command: Command) -> ViewerControls:
     nothing here."""
     kind = command.kind
     if kind == "scrub":
-        return replace(controls, hours=_wrap_hours(controls.hours + command.value))
+        return replace(controls, hours=wrap_hours(controls.hours + command.value))
     if kind == "speed":
         speed = min(max(controls.day_speed + command.value, 0.0), MAX_DAY_SPEED)
         return replace(controls, day_speed=speed)
@@ -188,13 +188,6 @@ def apply_command(controls: ViewerControls, command: Command) -> ViewerControls:
             return replace(controls, mode=back)
         return replace(controls, mode=COMPARISON_MODE, previous_mode=controls.mode)
     return controls
-
-
-def _wrap_hours(hours: float) -> float:
-    if not math.isfinite(hours):
-        return 0.0
-    wrapped = hours % 24.0
-    return 0.0 if wrapped >= 24.0 else wrapped
 
 
 def _step_speed(speed: float, steps: int) -> float:

@@ -18,6 +18,7 @@ import threading
 from typing import IO, Any
 
 from sand_editor.untrusted import bounded_number, deeper_than, printable, shorten
+from sand_editor.view import MAX_DAY_SPEED
 
 # Exit statuses of ``sand-editor vr``.
 EXIT_OK = 0
@@ -37,7 +38,6 @@ MAX_SEQ = 2**53  # sequence numbers are integers a JSON reader in any language k
 
 EDITOR_MESSAGES = frozenset({"preset", "time", "mode", "quit"})
 VIEWER_MESSAGES = frozenset({"ready", "state", "applied", "time", "mode", "error", "bye"})
-MAX_DAY_SPEED = 24.0  # simulated hours per real second
 
 
 class LinkError(ValueError):

@@ -15,6 +15,7 @@ from PIL import Image, ImageDraw, ImageFont
 from sand_editor.gl import program
 from sand_editor.render.camera import Camera
 from sand_editor.render.terrain import _grid_index, sphere_mesh
+from sand_editor.view import format_time
 from sand_editor.vr.actions import Command, ViewerControls
 
 TABLE_HEIGHT_M = 0.85  # top of the block above the ground
@@ -191,9 +192,8 @@ class Workbench:
 
     def panel_text(self, controls: ViewerControls, preset_name: str) -> tuple:
         """What the panel shows: it is drawn again only when this changes."""
-        minutes = int(math.floor((controls.hours % 24.0) * 60.0)) % (24 * 60)
         return (
-            f"{minutes // 60:02d}:{minutes % 60:02d}",
+            format_time(controls.hours),
             "playing" if controls.playing else "paused",
             _speed_text(controls.day_speed),
             f"sand: {preset_name}",

@@ -338,3 +338,19 @@ def test_bundled_preset_is_not_remembered_as_recent(qtbot, settings_file):
     assert not window.recent_menu.isEnabled()
     assert window.path is None and window._source == bundled_preset("red-desert")
     close(window, qtbot)
+
+
+def test_schema_1_settings_keep_the_clock_in_the_new_units(qtbot, settings_file):
+    store = QSettings(str(settings_file), QSettings.Format.IniFormat)
+    store.setValue("schema_version", 1)
+    store.setValue("view3d/time_hours", 17.25)
+    store.setValue("view3d/day_speed", 3600)  # simulated seconds per real second
+    store.sync()
+    window = make_window(qtbot, settings_file)
+    state = window.view_model.state
+    assert state.hours == pytest.approx(17.25)
+    assert state.playing and state.day_speed == pytest.approx(1.0)  # an hour a second
+    close(window, qtbot)
+    stored = QSettings(str(settings_file), QSettings.Format.IniFormat)
+    assert int(stored.value("schema_version")) == SCHEMA_VERSION == 2
+    assert stored.value("view3d/time_hours") is None

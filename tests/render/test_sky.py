@@ -3,7 +3,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sand_editor.render.sky import advance, parse_time, sky_at
+from sand_editor.render.sky import parse_time, sky_at
 
 
 def elevation(time_hours: float) -> float:
@@ -71,9 +71,3 @@ def test_parse_time_accepts_24_00():
 def test_parse_time_names_the_allowed_form(text):
     with pytest.raises(ValueError, match="HH:MM"):
         parse_time(text)
-
-
-def test_advance_wraps_the_clock():
-    assert advance(23.5, 60.0, 60.0) == pytest.approx(0.5)
-    assert advance(6.0, 10.0, 1.0) == pytest.approx(6.0 + 10.0 / 3600)
-    assert 0.0 <= advance(0.0, -1.0, 3600.0) < 24.0

@@ -6,6 +6,7 @@ import re
 
 import pytest
 
+from sand_editor.view import MAX_DAY_SPEED
 from sand_editor.vr.actions import (
     ACTIONS,
     BINDINGS,
@@ -19,7 +20,6 @@ from sand_editor.vr.actions import (
     binding_paths,
     commands_from_input,
 )
-from sand_editor.vr.link import MAX_DAY_SPEED
 
 # Inputs each profile has, per the OpenXR specification's interaction profile lists.
 PROFILE_INPUTS = {
