@@ -1,7 +1,8 @@
 """The editor's side of the VR link: start ``sand-editor vr --control stdio`` as a child process,
 stream the preset being edited, the time of day and the mode to it, and turn its answers into Qt
 signals (protocol: ``sand_editor.vr.link``). The window's button and bindings are in
-``_vr_controls``.
+``_vr_controls``, the coalescing of what is sent in ``_vr_outbox``, and the wording of how the
+viewer ended in ``_vr_exit``.
 
 The viewer is a separate process so that a runtime, driver or headset problem can never take the
 editor down: whatever the viewer does (crash, hang, refuse to start), the editor says what
@@ -14,94 +15,28 @@ import collections
 import os
 import shlex
 import shutil
-import signal
 import sys
 import tempfile
-import time
 from functools import partial
 from pathlib import Path
 
 from PySide6.QtCore import QObject, QProcess, QProcessEnvironment, QTimer, Signal
 
+from sand_editor.app._vr_exit import SIGKILL, describe_exit
+from sand_editor.app._vr_outbox import Outbox
 from sand_editor.preset import Preset
-from sand_editor.vr.link import (
-    EXIT_BAD_INPUT,
-    EXIT_GRAPHICS,
-    EXIT_INTERRUPTED,
-    EXIT_LINK_BROKEN,
-    EXIT_NO_HEADSET,
-    EXIT_NO_RUNTIME,
-    EXIT_OK,
-    check_time_fields,
-    decode,
-    encode,
-)
+from sand_editor.vr.link import check_time_fields, decode, encode
 
 WRAPPER_VARIABLE = "SAND_EDITOR_VR_WRAPPER"
 # The interpreter that runs the viewer; a wrapper that changes root (tools/monado/run) has its
 # own Python, where this process's sys.executable does not exist.
 PYTHON_VARIABLE = "SAND_EDITOR_VR_PYTHON"
-SEND_INTERVAL_MS = 50  # at most one send per interval: a slider drag sends its latest value
 READY_TIMEOUT_MS = 60_000  # first frame: shader compile and grain generation on llvmpipe
 ANSWER_TIMEOUT_MS = 30_000  # a preset not on screen by then: the viewer is not responding
 QUIT_GRACE_MS = 3000  # after "quit", before SIGTERM
 TERMINATE_GRACE_MS = 2000  # after SIGTERM, before SIGKILL
 STDERR_LINES_KEPT = 40
 STDERR_LINES_SHOWN = 6
-LATENCIES_KEPT = 100
-# Between what happened and the viewer's last log lines, in the message of ``finished``.
-LOG_HEADING = "\n\nLast lines from the viewer:\n"
-
-EXIT_MEANINGS = {
-    EXIT_BAD_INPUT: "the viewer refused its input (preset or arguments)",
-    EXIT_NO_RUNTIME: "no OpenXR runtime is installed or active",
-    EXIT_NO_HEADSET: "the OpenXR runtime has no headset ready (none found, or it was lost)",
-    EXIT_GRAPHICS: "the viewer could not set up graphics (no OpenGL context, or the runtime "
-    "refused the session)",
-    EXIT_LINK_BROKEN: "the viewer lost its link to the editor (reading the editor's messages "
-    "failed)",
-    EXIT_INTERRUPTED: "the viewer was interrupted",
-}
-FIXES = {
-    EXIT_NO_RUNTIME: "Install and activate an OpenXR runtime such as SteamVR, Monado or WiVRn "
-    "(make it the active runtime in its settings, or point XR_RUNTIME_JSON at its manifest), "
-    "then press View in VR again.",
-    EXIT_NO_HEADSET: "Connect the headset and turn it on (for WiVRn or ALVR, start the app on "
-    "the headset), make sure the runtime shows it as ready, then press View in VR again.",
-}
-
-
-# Signal numbers by name, where the platform has them (Windows has no SIGKILL or SIGBUS).
-_SIGKILL = int(getattr(signal, "SIGKILL", 9))
-_CRASH_SIGNALS = frozenset(
-    int(getattr(signal, name))
-    for name in ("SIGSEGV", "SIGBUS", "SIGABRT", "SIGILL", "SIGFPE")
-    if hasattr(signal, name)
-)
-
-
-def exit_meaning(status: int) -> str:
-    """What an exit status of ``sand-editor vr`` means, in words; negative: killed by a signal."""
-    if status < 0:
-        name = _signal_name(-status)
-        if -status == _SIGKILL:
-            return (
-                f"the viewer was killed ({name}: by another program, or by the system when "
-                "memory ran out)"
-            )
-        if -status in _CRASH_SIGNALS:
-            return f"the viewer crashed ({name})"
-        return f"the viewer was ended by {name}"
-    if status == EXIT_OK:
-        return "the viewer closed"
-    return EXIT_MEANINGS.get(status, f"the viewer stopped with exit status {status}")
-
-
-def _signal_name(number: int) -> str:
-    try:
-        return signal.Signals(number).name
-    except ValueError:
-        return f"signal {number}"
 
 
 def viewer_command(
@@ -183,22 +118,13 @@ class VrLink(QObject):
         self.ready_info: dict | None = None
         self.session_state = ""
         self.stderr_lines: collections.deque[str] = collections.deque(maxlen=STDERR_LINES_KEPT)
-        self.seq = 0
         self.sent: collections.Counter[str] = collections.Counter()  # messages by type
-        # seq → ms from the edit to its "applied", for the latest LATENCIES_KEPT presets shown.
-        self.latency_ms: dict[int, float] = {}
-        self._edit_times: dict[int, float] = {}  # seq → perf_counter() of the edit, until shown
-        self._pending_preset: Preset | None = None
-        self._pending_since = 0.0
-        self._last_flush = 0.0  # perf_counter() of the last send
-        self._pending: dict[str, dict] = {}  # other messages by type, the latest of each
-        self._sent_preset: Preset | None = None
+        self._outbox = Outbox(self._send, lambda: self.is_ready, self._accepting, self)
+        self._outbox.preset_sent.connect(self._preset_sent)
         self._stdout = b""
         self._folder: str | None = None
         # Why the editor ended the viewer itself (it hung); None when it exited on its own.
         self.stop_reason: str | None = None
-        self._send_timer = QTimer(self, singleShot=True)
-        self._send_timer.timeout.connect(self._flush)
         self._ready_timer = QTimer(self, singleShot=True)
         self._ready_timer.timeout.connect(self._ready_timed_out)
         self.answer_timeout_ms = ANSWER_TIMEOUT_MS
@@ -222,14 +148,24 @@ class VrLink(QObject):
         return self.ready_info is not None
 
     @property
+    def seq(self) -> int:
+        """The number of the latest preset sent."""
+        return self._outbox.seq
+
+    @property
+    def latency_ms(self) -> dict[int, float]:
+        """Sequence number → ms from the edit to the viewer showing it, for the latest presets."""
+        return self._outbox.latency_ms
+
+    @property
     def unanswered(self) -> int:
         """Presets sent and neither shown nor superseded yet."""
-        return len(self._edit_times)
+        return self._outbox.unanswered
 
     @property
     def last_sent_preset(self) -> Preset | None:
         """The preset the viewer was last given (on its command line or over the link)."""
-        return self._sent_preset
+        return self._outbox.last_sent_preset
 
     @property
     def stopping(self) -> bool:
@@ -246,9 +182,7 @@ class VrLink(QObject):
         self.stderr_lines.clear()
         self._stdout = b""
         self.stop_reason = None
-        self._pending_preset = None
-        self._pending.clear()
-        self._edit_times.clear()
+        self._outbox.clear()
         # A wrapper may run the viewer where this machine's temporary folder is not (a chroot,
         # a container): the preset then goes over the link, as its first message.
         through_link = bool(os.environ.get(WRAPPER_VARIABLE, "").strip())
@@ -262,11 +196,7 @@ class VrLink(QObject):
         except ValueError as error:  # PresetError included
             self._end(-1, f"Cannot start the VR viewer: {error}")
             return
-        self._sent_preset = None
-        if through_link:
-            self.send_preset(preset)
-        else:
-            self._sent_preset = preset
+        self._outbox.start(preset, through_link)
         process = self.process = QProcess(self)
         environment = QProcessEnvironment.systemEnvironment()
         environment.insert("PYTHONUNBUFFERED", "1")
@@ -284,8 +214,7 @@ class VrLink(QObject):
 
     def _process_started(self, process: QProcess) -> None:
         if process is self.process:
-            if self._pending_preset is not None:
-                self._send_preset()  # the starting preset, when it is not given as a file
+            self._outbox.write_preset()  # the starting preset, when it is not given as a file
             self.started.emit()
 
     def stop(self) -> None:
@@ -352,31 +281,17 @@ class VrLink(QObject):
         self._read_stdout(process)
         self._read_stderr(process)
         status = self._exit_status()
-        self._end(status, self._describe_exit(status))
+        message = describe_exit(status, self.stop_reason, self.is_ready, self.stderr_tail())
+        self._end(status, message)
 
     def _exit_status(self) -> int:
         process = self.process
         if process is None or process.state() != QProcess.ProcessState.NotRunning:
-            return -_SIGKILL
+            return -SIGKILL
         if process.exitStatus() == QProcess.ExitStatus.CrashExit:
             # Qt reports the terminating signal as the exit code of a crashed process.
-            return -process.exitCode() if process.exitCode() > 0 else -_SIGKILL
+            return -process.exitCode() if process.exitCode() > 0 else -SIGKILL
         return process.exitCode()
-
-    def _describe_exit(self, status: int) -> str:
-        sentence = exit_meaning(status)
-        if self.stop_reason is not None:
-            ending = _signal_name(-status) if status < 0 else f"exit status {status}"
-            sentence = f"the viewer was stopped because {self.stop_reason} (it ended with {ending})"
-        elif status == EXIT_OK and not self.is_ready:
-            sentence = "the viewer closed before it showed anything"
-        message = sentence[0].upper() + sentence[1:] + "."
-        if status in FIXES:
-            message += " " + FIXES[status]
-        tail = self.stderr_tail()
-        if tail and (status != EXIT_OK or self.stop_reason is not None):
-            message += LOG_HEADING + tail
-        return message
 
     def stderr_tail(self, lines: int = STDERR_LINES_SHOWN) -> str:
         return "\n".join(list(self.stderr_lines)[-lines:])
@@ -384,8 +299,9 @@ class VrLink(QObject):
     def _end(self, status: int, message: str) -> None:
         process, self.process = self.process, None
         timers = (self._ready_timer, self._answer_timer, self._terminate_timer, self._kill_timer)
-        for timer in (*timers, self._send_timer):
+        for timer in timers:
             timer.stop()
+        self._outbox.stop()
         self.responding = True
         if process is not None:
             if process.state() != QProcess.ProcessState.NotRunning:
@@ -400,51 +316,21 @@ class VrLink(QObject):
 
     def send_preset(self, preset: Preset) -> None:
         """Stream a preset (saved or not); sent at most every ``SEND_INTERVAL_MS``, the latest."""
-        if self._pending_preset is None:
-            self._pending_since = time.perf_counter()
-        self._pending_preset = preset
-        self._schedule()
+        self._outbox.put_preset(preset)
 
     def send_time(self, **fields) -> None:
         """Any of ``hours``, ``day_speed`` (simulated hours per real second), ``playing``."""
-        merged = self._pending.get("time", {"type": "time"})
-        merged.update(fields)
-        self._pending["time"] = merged
-        self._schedule()
+        self._outbox.put_time(**fields)
 
     def send_mode(self, mode: str) -> None:
-        self._pending["mode"] = {"type": "mode", "mode": mode}
-        self._schedule()
+        self._outbox.put_mode(mode)
 
-    def _schedule(self) -> None:
-        # Before "ready" everything waits; the latest of each kind is sent once the viewer shows.
-        if not self.is_ready or self._send_timer.isActive():
-            return
-        # The first change after a pause goes at once; during a drag one per interval follows.
-        wait_ms = SEND_INTERVAL_MS - (time.perf_counter() - self._last_flush) * 1000.0
-        if wait_ms <= 0:
-            self._flush()
-        else:
-            self._send_timer.start(max(1, round(wait_ms)))
+    def _accepting(self) -> bool:
+        return self.process is not None and not self.stopping
 
-    def _flush(self) -> None:
-        if self.process is None or not self.is_ready or self.stopping:
-            return
-        self._last_flush = time.perf_counter()
-        self._send_preset()
-        for message in self._pending.values():
-            self._send(message)
-        self._pending.clear()
-
-    def _send_preset(self) -> None:
-        preset, self._pending_preset = self._pending_preset, None
-        if preset is not None and preset != self._sent_preset:
-            self.seq += 1
-            self._edit_times[self.seq] = self._pending_since
-            self._sent_preset = preset
-            self._send({"type": "preset", "preset": preset.to_dict(), "seq": self.seq})
-            if self.is_ready and not self._answer_timer.isActive():
-                self._answer_timer.start(self.answer_timeout_ms)
+    def _preset_sent(self) -> None:
+        if self.is_ready and not self._answer_timer.isActive():
+            self._answer_timer.start(self.answer_timeout_ms)
 
     def _send(self, message: dict) -> None:
         if self.process is not None and self.process.state() == QProcess.ProcessState.Running:
@@ -473,11 +359,11 @@ class VrLink(QObject):
         kind = message["type"]
         if kind == "ready":
             self._ready_timer.stop()
-            if self._edit_times:  # the starting preset went over the link
+            if self._outbox.unanswered:  # the starting preset went over the link
                 self._answer_timer.start(self.answer_timeout_ms)
             self.ready_info = message
             self.ready.emit(message)
-            self._schedule()
+            self._outbox.schedule()
         elif kind == "state":
             self.session_state = str(message.get("state", ""))
             self.state.emit(self.session_state)
@@ -488,14 +374,7 @@ class VrLink(QObject):
             elif self._answer_timer.isActive():
                 self._answer_timer.start(self.answer_timeout_ms)  # answering, a newer one is due
             self.responding = True
-            edited = self._edit_times.pop(seq, None)
-            if edited is not None:
-                self.latency_ms[seq] = (time.perf_counter() - edited) * 1000.0
-            # The viewer skips presets superseded before it started on them: never shown.
-            for skipped in [s for s in self._edit_times if s < seq]:
-                del self._edit_times[skipped]
-            for oldest in list(self.latency_ms)[: max(0, len(self.latency_ms) - LATENCIES_KEPT)]:
-                del self.latency_ms[oldest]
+            self._outbox.shown(seq)
             self.applied.emit(seq, float(message.get("ms", "nan")))
         elif kind == "time":
             self.time.emit(check_time_fields(message))
