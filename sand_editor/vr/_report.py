@@ -38,3 +38,55 @@ def summary(values: list[float]) -> dict:
         "p99": round(float(np.percentile(array, 99)), 3),
         "count": len(values),
     }
+
+
+def loop_report(loop) -> dict:
+    """The report of a frame loop (``--report``): what ran, how fast, what it held."""
+    backend = loop.backend
+    stats = loop.stats
+    suggested = getattr(backend, "suggested_profiles", {})
+    rejected = [
+        f"bindings for {profile} rejected: {outcome}"
+        for profile, outcome in suggested.items()
+        if outcome != "accepted"
+    ]
+    if "after_warm_up" in loop.resources and "end" not in loop.resources:
+        loop.resources["end"] = loop._resources()
+    return {
+        "backend": backend.name,
+        "runtime": backend.runtime,
+        "system": backend.system,
+        "views": backend.views,
+        "swapchain_format": backend.swapchain_format,
+        "reference_space": backend.reference_space,
+        "interaction_profiles": backend.interaction_profiles(),
+        "suggested_bindings": suggested,
+        "frames_submitted": stats.frames_submitted,
+        "frames_rendered": stats.frames_rendered,
+        "eye_ms": summary(stats.eye_ms),
+        "frame_overhead_ms": summary(stats.overhead_ms),
+        "wait_ms": summary(stats.wait_ms),
+        "submit_ms": summary(stats.submit_ms),
+        "frame_gap_ms": summary(stats.gaps_ms),
+        "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
+        "max_frame_gap_at_frame": stats.max_gap_frame,
+        "max_frame_gap_while_regenerating_ms": round(
+            max(stats.regenerating_gaps_ms, default=0.0), 2
+        ),
+        "view_matrices_differ": stats.views_differ and stats.frames_rendered > 0,
+        "terrain_meshes_built": loop.renderer.terrain_meshes_built - loop._builds_before_loop,
+        "head_level_of_detail_changes": stats.head_lod_changes,
+        "frames_where_eyes_disagree_on_level_of_detail": stats.eye_lod_disagreements,
+        "final": {
+            "hours": round(loop.controls.hours, 4),
+            "day_speed": loop.controls.day_speed,
+            "playing": loop.controls.playing,
+            "mode": loop.controls.mode,
+            "preset": loop.presets[loop._index()][0],
+        },
+        "resources": loop.resources,
+        "states": stats.states,
+        "errors": [*stats.errors, *rejected],
+        "link_errors_answered": stats.error_count,
+        "grain_requests_superseded": loop.worker.superseded,
+    }

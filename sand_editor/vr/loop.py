@@ -10,21 +10,19 @@ from __future__ import annotations
 
 import sys
 import time
-import traceback
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 
 from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset, PresetError
-from sand_editor.render.modes import MODES
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import presets_dir
 from sand_editor.vr._files import read_pixels, save_side_by_side
-from sand_editor.vr._report import FrameStats, summary
+from sand_editor.vr._messages import answer_error, handle_link
+from sand_editor.vr._report import FrameStats, loop_report
 from sand_editor.vr._resources import gl_object_counts, resident_mb
 from sand_editor.vr.actions import (
     InputState,
@@ -32,15 +30,9 @@ from sand_editor.vr.actions import (
     apply_command,
     commands_from_input,
 )
-from sand_editor.vr.errors import LinkBrokenError, NoHeadsetError
+from sand_editor.vr.backend import Backend, EyeView, Frame  # noqa: F401 - the backends' types
+from sand_editor.vr.errors import NoHeadsetError
 from sand_editor.vr.grains import GrainWorker
-from sand_editor.vr.link import (
-    EDITOR_MESSAGES,
-    LinkError,
-    check_seq,
-    check_time_fields,
-    error_text,
-)
 from sand_editor.vr.workbench import Workbench
 from sand_editor.vr.xrmath import Fov, Pose, eye_camera
 
@@ -52,42 +44,6 @@ MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
 SESSION_NOTICE_S = 10.0  # waiting this long for the session to run: tell the user
 SESSION_TIMEOUT_S = 60.0  # ... and give up with --frames (tests, support runs)
 WARM_UP_FRAMES = 50  # the report's resource counts are taken here and at the end
-MAX_REPORTED_ERRORS = 200  # the report keeps the first errors; each is still answered
-
-
-@dataclass
-class EyeView:
-    pose: Pose  # in the tracking space
-    fov: Fov
-
-
-@dataclass
-class Frame:
-    """One frame as the backend predicts it: ``display_time_s`` (seconds, any origin)."""
-
-    display_time_s: float
-    should_render: bool
-    eyes: list[EyeView]
-    input: InputState = field(default_factory=InputState)
-    input_ms: float = 0.0  # reading the controls: the viewer's own work, part of the overhead
-
-
-class Backend(Protocol):
-    name: str  # "xr" or "desktop"
-    runtime: str
-    system: str
-    views: list[dict]  # per eye: width, height, fov (four angles)
-    swapchain_format: str
-    floor_level: bool  # tracking space y = 0 is the floor (STAGE)
-    reference_space: str  # STAGE or LOCAL
-    exiting: bool
-
-    def poll_events(self) -> list[str]: ...  # session states entered since the last call
-    def wait_frame(self) -> Frame | None: ...  # None while the session is not running
-    def eye_target(self, index: int): ...  # context manager → (framebuffer, viewport)
-    def end_frame(self, frame: Frame, rendered: bool) -> None: ...
-    def interaction_profiles(self) -> dict[str, str | None]: ...
-    def request_exit(self) -> None: ...
 
 
 @dataclass
@@ -187,7 +143,7 @@ class FrameLoop:
             for state in backend.poll_events():
                 stats.states.append(state)
                 self.link.send(type="state", state=state)
-            self._handle_link()
+            handle_link(self)
             regenerating = self.pending is not None or self.worker.busy
             wait_start = time.perf_counter()
             frame = backend.wait_frame()
@@ -356,57 +312,6 @@ class FrameLoop:
 
     # ---- the link -------------------------------------------------------------------------
 
-    def _handle_link(self) -> None:
-        for message in self.link.poll():
-            if isinstance(message, LinkError):  # a line that is no message
-                self._error(str(message))
-                continue
-            try:
-                self._handle_message(message)
-            except (LinkError, PresetError) as exc:
-                self._error(f"{message['type']}: {exc}")
-            except Exception as exc:  # noqa: BLE001 - no line may end the viewer
-                traceback.print_exc(file=sys.stderr)
-                self._error(f"{message['type']}: not applied: {type(exc).__name__}: {exc}")
-        if self.link.closed:
-            if self.link.broken is not None:
-                raise LinkBrokenError(f"the link to the editor broke: {self.link.broken}")
-            self.backend.request_exit()
-
-    def _handle_message(self, message: dict) -> None:
-        kind = message["type"]
-        if kind == "preset":
-            seq = check_seq(message)
-            preset = Preset.from_dict(message.get("preset"), source="the editor's preset")
-            label = f"{preset.name} (editing)"
-            if self.presets[0][0].endswith("(editing)"):
-                self.presets[0] = (label, preset)
-            else:
-                self.presets.insert(0, (label, preset))
-            self.controls = replace(self.controls, preset_index=0, preset_count=len(self.presets))
-            self.worker.request(preset, seq)
-            self.pending = (seq, time.perf_counter())
-        elif kind == "time":
-            fields = check_time_fields(message)
-            self.controls = replace(self.controls, **fields)
-        elif kind == "mode":
-            mode = message.get("mode")
-            if not isinstance(mode, str) or mode not in MODES:
-                shown = repr(mode) if isinstance(mode, str) else type(mode).__name__
-                raise LinkError(f"unknown mode {shown}; allowed: {', '.join(MODES)}")
-            self.controls = replace(self.controls, mode=mode)
-        elif kind == "quit":
-            self.backend.request_exit()
-        else:
-            raise LinkError(f"unknown message type {kind!r}; allowed: {', '.join(EDITOR_MESSAGES)}")
-
-    def _error(self, text: str) -> None:
-        text = error_text(text)
-        self.stats.error_count += 1
-        if len(self.stats.errors) < MAX_REPORTED_ERRORS:
-            self.stats.errors.append(text)
-        self.link.send(type="error", message=text)
-
     # ---- grains -------------------------------------------------------------------------------
 
     def _take_new_material(self) -> None:
@@ -416,7 +321,7 @@ class FrameLoop:
         if self.pending is not None and self.pending[0] == ready.seq:
             self.pending = None
         if ready.material is None:
-            self._error(f"preset {ready.preset.name!r}: {ready.error}; the old sand stays")
+            answer_error(self, f"preset {ready.preset.name!r}: {ready.error}; the old sand stays")
             return
         self._show(ready.material, ready.preset)
         if ready.seq is not None:
@@ -466,54 +371,7 @@ class FrameLoop:
         }
 
     def report(self) -> dict:
-        backend = self.backend
-        stats = self.stats
-        suggested = getattr(backend, "suggested_profiles", {})
-        rejected = [
-            f"bindings for {profile} rejected: {outcome}"
-            for profile, outcome in suggested.items()
-            if outcome != "accepted"
-        ]
-        if "after_warm_up" in self.resources and "end" not in self.resources:
-            self.resources["end"] = self._resources()
-        return {
-            "backend": backend.name,
-            "runtime": backend.runtime,
-            "system": backend.system,
-            "views": backend.views,
-            "swapchain_format": backend.swapchain_format,
-            "reference_space": backend.reference_space,
-            "interaction_profiles": backend.interaction_profiles(),
-            "suggested_bindings": suggested,
-            "frames_submitted": stats.frames_submitted,
-            "frames_rendered": stats.frames_rendered,
-            "eye_ms": summary(stats.eye_ms),
-            "frame_overhead_ms": summary(stats.overhead_ms),
-            "wait_ms": summary(stats.wait_ms),
-            "submit_ms": summary(stats.submit_ms),
-            "frame_gap_ms": summary(stats.gaps_ms),
-            "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
-            "max_frame_gap_at_frame": stats.max_gap_frame,
-            "max_frame_gap_while_regenerating_ms": round(
-                max(stats.regenerating_gaps_ms, default=0.0), 2
-            ),
-            "view_matrices_differ": stats.views_differ and stats.frames_rendered > 0,
-            "terrain_meshes_built": self.renderer.terrain_meshes_built - self._builds_before_loop,
-            "head_level_of_detail_changes": stats.head_lod_changes,
-            "frames_where_eyes_disagree_on_level_of_detail": stats.eye_lod_disagreements,
-            "final": {
-                "hours": round(self.controls.hours, 4),
-                "day_speed": self.controls.day_speed,
-                "playing": self.controls.playing,
-                "mode": self.controls.mode,
-                "preset": self.presets[self._index()][0],
-            },
-            "resources": self.resources,
-            "states": stats.states,
-            "errors": [*stats.errors, *rejected],
-            "link_errors_answered": stats.error_count,
-            "grain_requests_superseded": self.worker.superseded,
-        }
+        return loop_report(self)
 
 
 def _between(eyes: list[EyeView]) -> Pose:
