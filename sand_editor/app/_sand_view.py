@@ -8,13 +8,20 @@ import math
 import time
 
 import moderngl
-import numpy as np
 import shiboken6
 from PySide6.QtCore import QPointF, Qt, QTimer, Signal
-from PySide6.QtGui import QOffscreenSurface, QOpenGLContext, QSurfaceFormat
+from PySide6.QtGui import QOffscreenSurface, QOpenGLContext
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 from PySide6.QtWidgets import QWidget
 
+from sand_editor.app._gl_resources import GLResources, surface_format
+from sand_editor.app._refinement import (
+    FRAME_BUDGET_MS,
+    MIN_BAND_ROWS,
+    SETTLE_MS,
+    adapted_scale,
+    band_camera,
+)
 from sand_editor.generator import SandTextures
 from sand_editor.gl import (
     REQUIRED_GL_VERSION,
@@ -22,7 +29,6 @@ from sand_editor.gl import (
     drawing_into,
     finish_without_gil,
     fullscreen_program,
-    release_program,
     release_standalone_context,
 )
 from sand_editor.preset import Preset
@@ -31,88 +37,8 @@ from sand_editor.render.material import SandMaterial
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.sky import sky_at
 
-# Adaptive resolution: while the view moves, frames are drawn at a fraction of the widget's
-# pixels, chosen so a frame takes about FRAME_BUDGET_MS; SETTLE_MS after the last change, one
-# frame at full resolution.
-FRAME_BUDGET_MS = 25.0
-MIN_SCALE = 0.08
-MIN_BAND_ROWS = 8
-MAX_MOVING_SCALE = 0.75
-SETTLE_MS = 300
 WHEEL_FACTOR = 1.15
 DEG_PER_PIXEL = 0.3
-
-
-def surface_format() -> QSurfaceFormat:
-    fmt = QSurfaceFormat()
-    fmt.setVersion(REQUIRED_GL_VERSION // 100, (REQUIRED_GL_VERSION // 10) % 10)
-    fmt.setProfile(QSurfaceFormat.OpenGLContextProfile.CoreProfile)
-    fmt.setDepthBufferSize(24)
-    return fmt
-
-
-class GLResources:
-    """The view's GL objects, kept apart from the widget: they are released while Qt destroys
-    the widget's context, when the widget itself can no longer be reached from Python."""
-
-    def __init__(self) -> None:
-        self.ctx: moderngl.Context | None = None
-        self.material: SandMaterial | None = None
-        self.renderer: SandRenderer | None = None
-        self.surface: QOffscreenSurface | None = None
-        # The reduced-resolution frame, the full one being refined, and the pass that draws
-        # them onto the widget.
-        self.targets: dict[str, moderngl.Framebuffer] = {}
-        self.upscale: moderngl.Program | None = None
-        # The GL error state when the objects went away; None until then.
-        self.release_error: str | None = None
-
-    def release(self, context: QOpenGLContext | None = None) -> None:
-        """Release everything, with ``context`` made current if given."""
-        if self.ctx is None:
-            return
-        if context is not None and not shiboken6.isValid(self.surface):
-            # Nothing left to make current: the objects go with the context itself.
-            self.ctx = self.material = self.renderer = self.surface = None
-            self.targets, self.upscale = {}, None
-            return
-        if context is not None:
-            release_standalone_context()
-            context.makeCurrent(self.surface)
-        try:
-            for owner in (self.renderer, self.material):
-                if owner is not None:
-                    owner.release()
-            for name in list(self.targets):
-                self.release_target(name)
-            if self.upscale is not None:
-                release_program(self.upscale)
-            self.release_error = self.ctx.error
-            self.ctx.release()
-        finally:
-            self.ctx = self.material = self.renderer = self.upscale = None
-            if context is not None:
-                context.doneCurrent()
-            if self.surface is not None and shiboken6.isValid(self.surface):
-                self.surface.destroy()
-            self.surface = None
-
-    def target(self, name: str, width: int, height: int) -> moderngl.Framebuffer:
-        """An offscreen colour target of the view, kept until its size changes."""
-        current = self.targets.get(name)
-        if current is None or current.size != (width, height):
-            self.release_target(name)
-            texture = self.ctx.texture((width, height), 4)
-            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self.targets[name] = self.ctx.framebuffer([texture])
-        return self.targets[name]
-
-    def release_target(self, name: str) -> None:
-        framebuffer = self.targets.pop(name, None)
-        if framebuffer is not None:
-            for texture in framebuffer.color_attachments:
-                texture.release()
-            framebuffer.release()
 
 
 class SandView(QOpenGLWidget):
@@ -399,9 +325,9 @@ class SandView(QOpenGLWidget):
         first = self._refined_rows
         if first == 0:
             self._refine_ms, self._bands = 0.0, 0
-        band_camera = _band_camera(camera, first, first + rows, height)
+        band = band_camera(camera, first, first + rows, height)
         start = time.perf_counter()
-        timings = self._render(full, band_camera, (0, first, width, rows))
+        timings = self._render(full, band, (0, first, width, rows))
         finish_without_gil()
         self._pixel_ms = (time.perf_counter() - start) * 1e3 / (width * rows)
         self._refined_rows = first + rows
@@ -439,10 +365,7 @@ class SandView(QOpenGLWidget):
                 self.ctx.scissor = None
 
     def _adapt_scale(self, frame_ms: float, scale: float) -> None:
-        # Cost grows with the pixel count, the square of the scale; damped against jitter.
-        wanted = scale * math.sqrt(FRAME_BUDGET_MS / max(frame_ms, 1e-3))
-        wanted = 0.5 * scale + 0.5 * wanted
-        self.moving_scale = min(max(wanted, MIN_SCALE), MAX_MOVING_SCALE)
+        self.moving_scale = adapted_scale(frame_ms, scale)
 
     def cleanup(self) -> None:
         """Release our GL objects now (the view then stays blank)."""
@@ -473,15 +396,3 @@ class SandView(QOpenGLWidget):
             # Wheel forward moves closer.
             self.zoomed.emit(WHEEL_FACTOR ** (-steps))
         event.accept()
-
-
-def _band_camera(camera, first_row: int, end_row: int, height: int):
-    """The camera whose frustum is rows [first_row, end_row) of ``camera``'s (rows from the
-    bottom): clip y is stretched so that band fills the viewport."""
-    bottom = 2.0 * first_row / height - 1.0
-    top = 2.0 * end_row / height - 1.0
-    stretch = np.eye(4)
-    stretch[1, 1] = 2.0 / (top - bottom)
-    stretch[1, 3] = -(top + bottom) / (top - bottom)
-    projection = stretch @ camera.projection.astype(np.float64)
-    return dataclasses.replace(camera, projection=projection.astype(np.float32))

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QSettings, Qt
+from PySide6.QtCore import QSettings, Qt
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import (
     QFileDialog,
-    QInputDialog,
     QLabel,
     QMainWindow,
     QMessageBox,
@@ -17,14 +16,14 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from sand_editor.app._bake import BAKE_SIZES, DEFAULT_BAKE_SIZE, BakeDialog, BakeJob
+from sand_editor.app._bake import BakeDialog
 from sand_editor.app._controls import ControlsPanel
 from sand_editor.app._model import PresetModel
 from sand_editor.app._preview import CHANNELS, TAB_3D, PreviewPanel
 from sand_editor.app._regenerator import Regenerator
 from sand_editor.app._settings import EditorSettings
 from sand_editor.app._vr_controls import VrControls
-from sand_editor.files import OutputError, write_atomic
+from sand_editor.app._window_files import STATUS_MESSAGE_MS, WindowFiles
 from sand_editor.generator import SandTextures
 from sand_editor.preset import FIELDS, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir
@@ -32,12 +31,10 @@ from sand_editor.view import ViewModel
 
 _REGENERATING = frozenset(spec.path for spec in FIELDS if spec.regenerates)
 _FILE_FILTER = "Sand presets (*.json);;All files (*)"
-_IMAGE_FILTER = "PNG images (*.png)"
 DEFAULT_SIZE = (1280, 820)
-STATUS_MESSAGE_MS = 6000
 
 
-class EditorWindow(QMainWindow):
+class EditorWindow(WindowFiles, QMainWindow):
     """Edits one preset at a time.
 
     Parameters
@@ -318,108 +315,6 @@ class EditorWindow(QMainWindow):
         if answer == QMessageBox.StandardButton.Discard:
             self.revert()
 
-    # -- recent files, drops ---------------------------------------------------------------------
-
-    def _remember_recent(self, path: Path) -> None:
-        if self.settings is not None:
-            self.settings.add_recent(path)
-            self._fill_recent_menu()
-
-    def _fill_recent_menu(self) -> None:
-        self.recent_menu.clear()
-        recent = self.settings.recent_files() if self.settings is not None else []
-        for path in recent:
-            self.recent_menu.addAction(
-                path.name, lambda _=False, p=path: self._ask_open_path(p)
-            ).setStatusTip(str(path))
-        if recent:
-            self.recent_menu.addSeparator()
-            self.recent_menu.addAction("Clear list", self._clear_recent)
-        self.recent_menu.setEnabled(bool(recent))
-
-    def _clear_recent(self) -> None:
-        if self.settings is not None:
-            self.settings.clear_recent()
-        self._fill_recent_menu()
-
-    def _ask_open_path(self, path: Path) -> None:
-        if self.maybe_save():
-            self.open_path(path)
-
-    def dragEnterEvent(self, event) -> None:
-        if _dropped_preset(event.mimeData()) is not None:
-            event.acceptProposedAction()
-
-    def dropEvent(self, event) -> None:
-        path = _dropped_preset(event.mimeData())
-        if path is not None:
-            event.acceptProposedAction()
-            self._ask_open_path(path)
-
-    # -- bake, screenshots -----------------------------------------------------------------------
-
-    def _ask_bake(self) -> None:
-        start = str(self._path.parent if self._path else Path.cwd())
-        folder = QFileDialog.getExistingDirectory(self, "Bake textures into folder", start)
-        if not folder:
-            return
-        sizes = [str(size) for size in BAKE_SIZES]
-        size, ok = QInputDialog.getItem(
-            self,
-            "Bake textures",
-            "Texture size (pixels):",
-            sizes,
-            sizes.index(str(DEFAULT_BAKE_SIZE)),
-            False,
-        )
-        if ok:
-            self.bake_to(Path(folder), int(size))
-
-    def bake_to(self, folder: Path, size: int) -> BakeDialog:
-        """Start baking the current preset into ``folder``; returns the open progress dialog."""
-        job = BakeJob(self.model.preset, size, Path(folder), self)
-        dialog = BakeDialog(job, self)
-        dialog.finished.connect(lambda: self._bake_done(dialog))
-        self.bake_dialog = dialog
-        self.bake_action.setEnabled(False)
-        dialog.open()
-        job.start()
-        return dialog
-
-    def _bake_done(self, dialog: BakeDialog) -> None:
-        self.bake_dialog = None
-        self.bake_action.setEnabled(True)
-        if dialog.error is not None:
-            QMessageBox.critical(self, "Cannot bake", dialog.error)
-        elif dialog.result is not None:
-            self.statusBar().showMessage(
-                f"Baked {dialog.job.size}² textures into {dialog.job.out_dir}", STATUS_MESSAGE_MS
-            )
-        else:
-            self.statusBar().showMessage("Bake cancelled; nothing written", STATUS_MESSAGE_MS)
-
-    def _ask_screenshot(self) -> None:
-        start = str(Path.cwd() / f"{self.model.preset.name}.png")
-        chosen, _ = QFileDialog.getSaveFileName(self, "Save screenshot", start, _IMAGE_FILTER)
-        if chosen:
-            path = Path(chosen) if Path(chosen).suffix else Path(chosen).with_suffix(".png")
-            try:
-                self.write_screenshot(path)
-            except OutputError as error:
-                QMessageBox.critical(self, "Cannot save screenshot", str(error))
-            else:
-                self.statusBar().showMessage(f"Saved {path}", STATUS_MESSAGE_MS)
-
-    def write_screenshot(self, path: str | Path) -> None:
-        """Write the window as shown to a PNG file (atomically); OutputError names the file."""
-        data = QByteArray()
-        buffer = QBuffer(data)
-        buffer.open(QIODevice.OpenModeFlag.WriteOnly)
-        if not self.grab().save(buffer, "PNG"):
-            raise OutputError(path, "cannot encode the window as PNG")
-        buffer.close()
-        write_atomic(path, data.data())
-
     # -- settings --------------------------------------------------------------------------------
 
     def _restore_settings(self) -> None:
@@ -494,13 +389,3 @@ class EditorWindow(QMainWindow):
 def _with_shortcut(text: str, action: QAction) -> str:
     shortcut = action.shortcut().toString(QKeySequence.SequenceFormat.NativeText)
     return f"{text} ({shortcut})" if shortcut else text
-
-
-def _dropped_preset(mime) -> Path | None:
-    """The first local .json file among dropped URLs, or None."""
-    for url in mime.urls() if mime.hasUrls() else []:
-        if url.isLocalFile():
-            path = Path(url.toLocalFile())
-            if path.suffix.lower() == ".json" and path.is_file():
-                return path
-    return None

@@ -8,7 +8,8 @@ draws whether it mirrors the sun (shaders/sand_surface.glsl); nothing in it is s
 has no sampling noise to converge away, and its expectation over the draws is computed too
 (``ground-truth-mean``), for energies free of the draws' noise. The sparkle share is measured
 on the tone-mapped image (bloom, exposure, ACES, sRGB), and on whole frames of ``sand-editor
-render`` at 480×270 for the look; the stereo frame is the whole renderer.
+render`` at 480×270 for the look. The frame costs (``frame_cost``) are the material's parts on
+the probe and a stereo frame through the whole renderer.
 """
 
 from __future__ import annotations
@@ -17,16 +18,16 @@ import dataclasses
 import math
 import statistics
 import sys
-import time
 
 import numpy as np
 
 from sand_editor.bench._report import report
+from sand_editor.bench.frame_cost import material_costs, stereo_cost
 from sand_editor.bench.generator import machine_description
 from sand_editor.bench.probe import MaterialProbe
 from sand_editor.gl import drawing_into, standalone_context
 from sand_editor.preset import Preset
-from sand_editor.render.material import CLOSE_CUTOFF, SandMaterial
+from sand_editor.render.material import SandMaterial
 from sand_editor.render.post import PostChain
 from sand_editor.resources import bundled_preset
 
@@ -37,7 +38,6 @@ APPROACHES = ("ours", "expected", "reference", "none")
 ENERGY_FILTER = {"ours": "ours-mean", "expected": "expected", "reference": "reference",
                  "none": "none", "ground-truth": "ground-truth-mean"}  # fmt: skip
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
-STEREO_EYE = (1832, 1920)
 SPARKLE_RATIO = 2.0  # a sparkle: at least twice the median luminance around it
 SPARKLE_WINDOW = 9  # pixels across the neighbourhood whose median that is
 LOOK_SIZE = (480, 270)
@@ -255,64 +255,6 @@ class Bench:
             renderer.release()
         return results
 
-    def frame_costs(self) -> dict:
-        """Per-megapixel costs of the parts of a frame, and what skipping negligible close-range
-        work saves, on a view whose far half is past the blend."""
-        distance = 4.0
-        pitch_view = {}
-        for name, mode, cutoff in (
-            ("close", "close", 2.0),
-            ("far", "far", 2.0),
-            ("full_without_skip", "full", 2.0),
-            ("full", "full", CLOSE_CUTOFF),
-        ):
-            self.material.close_cutoff = cutoff
-            self.probe.glint_filter = "ours"
-            camera = self.probe.camera(distance, pitch_deg=12.0)
-            times = [self.probe.render(camera, mode)[1] for _ in range(self.repeats)]
-            pitch_view[name] = statistics.median(times)
-        self.material.close_cutoff = CLOSE_CUTOFF
-        megapixels = self.probe.width * self.probe.height / 1e6
-        per_mp = {k: v / megapixels for k, v in pitch_view.items()}
-        per_mp["skip_saving"] = 1.0 - pitch_view["full"] / pitch_view["full_without_skip"]
-        return per_mp
-
-    def stereo(self) -> dict:
-        """A stereo frame through the whole renderer at a fraction of 1832×1920 per eye."""
-        from sand_editor.render.camera import camera_at_distance
-        from sand_editor.render.renderer import SandRenderer
-        from sand_editor.render.sky import sky_at
-
-        scale = 0.1 if self.quick else 0.2
-        width, height = (max(16, int(s * scale)) for s in STEREO_EYE)
-        renderer = SandRenderer(self.ctx)
-        renderer.set_material(self.material)
-        sky = sky_at(10.0)
-        target = self.ctx.framebuffer([self.ctx.texture((2 * width, height), 4)])
-        left = camera_at_distance(2.0, 30.0, width / height, target_xz=(-0.032, 0.0))
-        right = camera_at_distance(2.0, 30.0, width / height, target_xz=(0.032, 0.0))
-
-        def frame():
-            renderer.render(target, left, sky, viewport=(0, 0, width, height))
-            renderer.render(target, right, sky, viewport=(width, 0, width, height))
-            self.ctx.finish()
-
-        frame()
-        times = []
-        for _ in range(self.repeats):
-            start = time.perf_counter()
-            frame()
-            times.append((time.perf_counter() - start) * 1e3)
-        ms = statistics.median(times)
-        megapixels = 2 * width * height / 1e6
-        full_megapixels = 2 * STEREO_EYE[0] * STEREO_EYE[1] / 1e6
-        return {
-            "eye_size": [width, height],
-            "ms": ms,
-            "ms_per_megapixel": ms / megapixels,
-            "estimated_full_size_ms": ms / megapixels * full_megapixels,
-        }
-
 
 def run(quick: bool = False) -> dict:
     bench = Bench(quick)
@@ -335,9 +277,9 @@ def run(quick: bool = False) -> dict:
             sparkle[str(d)]["ours"]["cost_vs_reference_7x7"] for d in (0.1, 0.3, 1.0)
         ),
         "look": bench.look(),
-        "frame_cost_ms_per_megapixel": bench.frame_costs(),
+        "frame_cost_ms_per_megapixel": material_costs(bench.probe, bench.repeats),
     }
-    stereo = bench.stereo()
+    stereo = stereo_cost(bench.ctx, bench.material, 0.1 if bench.quick else 0.2, bench.repeats)
     results["stereo"] = stereo
     results["stereo_ms_per_megapixel"] = stereo["ms_per_megapixel"]
     return results

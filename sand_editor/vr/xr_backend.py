@@ -1,5 +1,6 @@
 """The headset: one OpenXR session through pyopenxr with OpenGL (``XR_KHR_opengl_enable``,
-a GLX context from a hidden GLFW window), its swapchains, actions and session life cycle.
+a GLX context from a hidden GLFW window), its actions and session life cycle; its swapchains are
+in ``xr_swapchains``, the reading of its controllers in ``xr_input``.
 
 pyopenxr raises qualified successes as exceptions: ``EventUnavailable`` ends an event poll,
 ``SessionNotFocused`` from ``sync_actions`` means no input this frame, ``FrameDiscarded`` means
@@ -10,20 +11,17 @@ from __future__ import annotations
 
 import ctypes
 import time
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager, suppress
 
 import xr
 
-from sand_editor.vr.actions import ACTIONS, BINDINGS, HANDS, HandInput, InputState, binding_paths
+from sand_editor.vr.actions import ACTIONS, BINDINGS, HANDS, InputState, binding_paths
 from sand_editor.vr.errors import RUNTIME_HELP, GraphicsError, NoHeadsetError, NoRuntimeError
 from sand_editor.vr.loop import EyeView, Frame
-from sand_editor.vr.xrmath import Fov, Pose
+from sand_editor.vr.xr_input import ControllerInput, as_pose
+from sand_editor.vr.xr_swapchains import STEREO, EyeSwapchains
+from sand_editor.vr.xrmath import Fov
 
-GL_SRGB8_ALPHA8 = 0x8C43
-GL_RGBA8 = 0x8058
-# The resolve pass writes sRGB-encoded values: an sRGB swapchain stores them as written.
-FORMAT_NAMES = {GL_SRGB8_ALPHA8: "GL_SRGB8_ALPHA8", GL_RGBA8: "GL_RGBA8"}
-STEREO = xr.ViewConfigurationType.PRIMARY_STEREO
 _ACTION_TYPES = {
     "boolean": xr.ActionType.BOOLEAN_INPUT,
     "float": xr.ActionType.FLOAT_INPUT,
@@ -107,11 +105,14 @@ class XrBackend:
 
     def __init__(self, windows_factory, render_scale: float) -> None:
         """``windows_factory()`` makes the GL windows (after the instance and system, so a
-        missing runtime or headset is reported before any window opens)."""
-        self._cleanup: list = []
+        missing runtime or headset is reported before any window opens).
+
+        Each resource's release is pushed on ``_teardown`` as it is created; ``close`` (or a
+        failure while starting) releases them in reverse order."""
+        self._teardown = ExitStack()
         self.exiting = False
         self.instance = create_instance()
-        self._cleanup.append(lambda: xr.destroy_instance(self.instance))
+        self._teardown.callback(xr.destroy_instance, self.instance)
         try:
             self._start(windows_factory, render_scale)
         except BaseException:
@@ -133,7 +134,7 @@ class XrBackend:
         self.system = _text(xr.get_system_properties(instance, self.system_id).system_name)
         requirements = gl_requirements(instance, self.system_id)
         self.windows = windows_factory()
-        self._cleanup.append(self.windows.close)
+        self._teardown.callback(self.windows.close)
         self.ctx = self.windows.ctx
         from xr.utils.gl import GLXGraphicsBinding
 
@@ -149,7 +150,7 @@ class XrBackend:
                 f"{minimum.major}.{minimum.minor} or newer, this context is "
                 f"{self.ctx.info['GL_VERSION']}"
             ) from None
-        self._cleanup.append(lambda: xr.destroy_session(self.session))
+        self._teardown.callback(xr.destroy_session, self.session)
         spaces = list(xr.enumerate_reference_spaces(self.session))
         self.floor_level = xr.ReferenceSpaceType.STAGE in spaces
         space_type = (
@@ -159,8 +160,12 @@ class XrBackend:
         self.space = xr.create_reference_space(
             self.session, xr.ReferenceSpaceCreateInfo(reference_space_type=space_type)
         )
-        self._cleanup.append(lambda: xr.destroy_space(self.space))
-        self._create_swapchains(render_scale)
+        self._teardown.callback(xr.destroy_space, self.space)
+        self._swapchains = EyeSwapchains(
+            instance, self.system_id, self.session, self.ctx, render_scale, self._teardown
+        )
+        self.swapchain_format = self._swapchains.format
+        self.views = self._swapchains.views
         self._create_actions()
         self._running = False
         self.lost = False
@@ -173,54 +178,13 @@ class XrBackend:
 
     # ---- set-up ----------------------------------------------------------------------------
 
-    def _create_swapchains(self, render_scale: float) -> None:
-        formats = list(xr.enumerate_swapchain_formats(self.session))
-        chosen = next((f for f in (GL_SRGB8_ALPHA8, GL_RGBA8) if f in formats), None)
-        if chosen is None:
-            raise GraphicsError(
-                f"the runtime offers no 8-bit colour swapchain: {[hex(f) for f in formats]}"
-            )
-        self.swapchain_format = FORMAT_NAMES[chosen]
-        self.views = []
-        self._eyes = []
-        configuration = xr.enumerate_view_configuration_views(self.instance, self.system_id, STEREO)
-        for view in configuration:
-            width = max(16, round(view.recommended_image_rect_width * render_scale))
-            height = max(16, round(view.recommended_image_rect_height * render_scale))
-            width = min(width, view.max_image_rect_width)
-            height = min(height, view.max_image_rect_height)
-            swapchain = xr.create_swapchain(
-                self.session,
-                xr.SwapchainCreateInfo(
-                    usage_flags=xr.SwapchainUsageFlags.COLOR_ATTACHMENT_BIT
-                    | xr.SwapchainUsageFlags.SAMPLED_BIT,
-                    format=chosen,
-                    sample_count=1,
-                    width=width,
-                    height=height,
-                    face_count=1,
-                    array_size=1,
-                    mip_count=1,
-                ),
-            )
-            self._cleanup.append(lambda sc=swapchain: xr.destroy_swapchain(sc))
-            images = xr.enumerate_swapchain_images(swapchain, xr.SwapchainImageOpenGLKHR)
-            framebuffers = []
-            for image in images:
-                # The runtime owns the texture: releasing our wrapper does not delete it.
-                texture = self.ctx.external_texture(image.image, (width, height), 4, 0, "f1")
-                framebuffers.append(self.ctx.framebuffer(color_attachments=[texture]))
-            self._cleanup.append(lambda fbs=framebuffers: [fb.release() for fb in fbs])
-            self._eyes.append((swapchain, (width, height), framebuffers))
-            self.views.append({"width": width, "height": height, "fov": None})
-
     def _create_actions(self) -> None:
         instance = self.instance
         self._hand_paths = {
             hand: xr.string_to_path(instance, f"/user/hand/{hand}") for hand in HANDS
         }
         self.action_set, self.actions = create_actions(instance, list(self._hand_paths.values()))
-        self._cleanup.append(lambda: xr.destroy_action_set(self.action_set))
+        self._teardown.callback(xr.destroy_action_set, self.action_set)
         self.suggested_profiles = {}
         for profile in BINDINGS:
             try:
@@ -232,14 +196,14 @@ class XrBackend:
         xr.attach_session_action_sets(
             self.session, xr.SessionActionSetsAttachInfo(action_sets=[self.action_set])
         )
-        self._aim_spaces = {}
-        for hand, path in self._hand_paths.items():
-            space = xr.create_action_space(
-                self.session,
-                xr.ActionSpaceCreateInfo(action=self.actions["aim"], subaction_path=path),
-            )
-            self._aim_spaces[hand] = space
-            self._cleanup.append(lambda s=space: xr.destroy_space(s))
+        self._controllers = ControllerInput(
+            self.session,
+            self.space,
+            self.action_set,
+            self.actions,
+            self._hand_paths,
+            self._teardown,
+        )
 
     # ---- session life cycle --------------------------------------------------------------------
 
@@ -338,83 +302,22 @@ class XrBackend:
                     view.fov.angle_down,
                 )
                 self.views[index]["fov"] = fov.as_dict()
-                eyes.append(EyeView(_pose(view.pose), fov))
+                eyes.append(EyeView(as_pose(view.pose), fov))
         self._projection_views = []
         start = time.perf_counter()
-        controls = self._input(display_time)
+        controls = self._controllers.read(display_time) if self._focused else InputState()
         input_ms = (time.perf_counter() - start) * 1e3
         return Frame(display_time * 1e-9, bool(frame_state.should_render), eyes, controls, input_ms)
 
-    def _input(self, display_time) -> InputState:
-        if not self._focused:
-            return InputState()
-        try:
-            xr.sync_actions(
-                self.session,
-                xr.ActionsSyncInfo(active_action_sets=[xr.ActiveActionSet(self.action_set, 0)]),
-            )
-        except xr.SessionNotFocused:
-            return InputState()
-        hands = {}
-        for hand, path in self._hand_paths.items():
-            hands[hand] = HandInput(
-                stick=self._vector(self.actions["scrub"], path),
-                select=self._float(self.actions["select"], path),
-                play_pause=self._boolean(self.actions["play_pause"], path),
-                next_preset=self._boolean(self.actions["next_preset"], path),
-                toggle_lambert=self._boolean(self.actions["toggle_lambert"], path),
-                aim=self._aim(hand, display_time),
-            )
-        return InputState(**hands)
-
-    def _info(self, action, path):
-        return xr.ActionStateGetInfo(action=action, subaction_path=path)
-
-    def _vector(self, action, path) -> tuple[float, float]:
-        state = xr.get_action_state_vector2f(self.session, self._info(action, path))
-        return (state.current_state.x, state.current_state.y) if state.is_active else (0.0, 0.0)
-
-    def _float(self, action, path) -> float:
-        state = xr.get_action_state_float(self.session, self._info(action, path))
-        return float(state.current_state) if state.is_active else 0.0
-
-    def _boolean(self, action, path) -> bool:
-        state = xr.get_action_state_boolean(self.session, self._info(action, path))
-        return bool(state.current_state) if state.is_active else False
-
-    def _aim(self, hand: str, display_time) -> Pose | None:
-        location = xr.locate_space(self._aim_spaces[hand], self.space, display_time)
-        flags = location.location_flags
-        wanted = (
-            xr.SpaceLocationFlags.POSITION_VALID_BIT | xr.SpaceLocationFlags.ORIENTATION_VALID_BIT
-        )
-        if (flags & wanted) != wanted:
-            return None
-        return _pose(location.pose)
-
     @contextmanager
     def eye_target(self, index: int):
-        swapchain, size, framebuffers = self._eyes[index]
-        image = xr.acquire_swapchain_image(swapchain, xr.SwapchainImageAcquireInfo())
-        xr.wait_swapchain_image(swapchain, xr.SwapchainImageWaitInfo(timeout=xr.INFINITE_DURATION))
-        try:
-            yield framebuffers[image], (0, 0, *size)
-        finally:
-            xr.release_swapchain_image(swapchain, xr.SwapchainImageReleaseInfo())
-        view = self._views[index]
-        self._projection_views.append(
-            xr.CompositionLayerProjectionView(
-                pose=view.pose,
-                fov=view.fov,
-                sub_image=xr.SwapchainSubImage(
-                    swapchain=swapchain, image_rect=xr.Rect2Di(extent=xr.Extent2Di(*size))
-                ),
-            )
-        )
+        with self._swapchains.image(index) as target:
+            yield target
+        self._projection_views.append(self._swapchains.projection_view(index, self._views[index]))
 
     def end_frame(self, frame: Frame, rendered: bool) -> None:
         layers = []
-        if rendered and len(self._projection_views) == len(self._eyes):
+        if rendered and len(self._projection_views) == len(self._swapchains):
             # Kept alive until end_frame returns: the runtime reads it there.
             layer = xr.CompositionLayerProjection(space=self.space, views=self._projection_views)
             layers.append(ctypes.byref(layer))
@@ -434,12 +337,10 @@ class XrBackend:
     # ---- end -------------------------------------------------------------------------------------
 
     def close(self) -> None:
-        while self._cleanup:
-            step = self._cleanup.pop()
-            try:
-                step()
-            except Exception:  # noqa: BLE001 - tearing down: the rest must still go
-                pass
+        """Release what was created, newest first. A release that fails does not stop the
+        others (the stack runs every callback), and its error is dropped: tearing down."""
+        with suppress(Exception):
+            self._teardown.close()
 
 
 def gl_requirements(instance, system_id):
@@ -455,8 +356,3 @@ def gl_requirements(instance, system_id):
     if result.is_exception():
         raise result
     return requirements
-
-
-def _pose(pose) -> Pose:
-    p, q = pose.position, pose.orientation
-    return Pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))

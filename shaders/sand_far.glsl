@@ -1,0 +1,68 @@
+// The far range of the sand material: d'Eon's Lambertian-sphere BRDF of the average colour on the
+// rippled macro normal (included by sand_surface.glsl after its uniforms and helpers).
+
+const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
+const float MIN_FACING = 0.05;       // least n·v of a shading normal
+
+// d'Eon (2021), the fitted form of the BRDF of a half space of Lambertian spheres, for one
+// channel: kd is the diffuse colour, c the particles' single-scattering albedo mapped from it.
+float lambert_sphere_brdf(float kd, float ui, float uo, float cos_io) {
+    float c = (1.0 - pow(1.0 - kd, 2.73556)) / (1.0 - 0.184096 * pow(1.0 - kd, 2.48423));
+    float u = clamp(-cos_io, -1.0, 1.0);
+    float phase = 2.0 * (sqrt(max(1.0 - u * u, 0.0)) - u * acos(u)) / (3.0 * PI * PI);
+    float single = c * phase / max(ui + uo, 1e-4);
+    float s = sqrt(max((1.0 - ui * ui) * (1.0 - uo * uo), 0.0));
+    // Relative azimuth from cos(io) = ui·uo + s·cos φ; at s → 0 the azimuth is moot.
+    float cos_phi = s > 1e-5 ? clamp((cos_io - ui * uo) / s, -1.0, 1.0) : 1.0;
+    float s_safe = max(s, 1e-5);
+    float multiple = ((acos(cos_phi) + sqrt(ui * uo)) * (c - 0.249978))
+                   / (4.50996 * (acos(min(s_safe, 1.0)) / s_safe + 0.113706))
+                   + pow(max(1.94208 * kd, 0.0), 1.85432);
+    return max(0.995917 * single + 0.0684744 * multiple, 0.0);
+}
+
+vec3 lambert_sphere(vec3 kd, vec3 n, vec3 l, vec3 v) {
+    float ui = dot(n, l), uo = dot(n, v);
+    if (ui <= 0.0 || uo <= 0.0) return vec3(0.0);
+    float cos_io = dot(l, v);
+    // Every channel with its own albedo.
+    return vec3(lambert_sphere_brdf(kd.r, ui, uo, cos_io), lambert_sphere_brdf(kd.g, ui, uo, cos_io),
+                lambert_sphere_brdf(kd.b, ui, uo, cos_io));
+}
+
+// The macro normal with ripples across the dune slope and fine detail.
+vec3 rippled_normal(SurfacePoint s) {
+    // Ripple crests run along the contour lines: the ripple axis is the down-slope direction.
+    vec3 up = vec3(0.0, 1.0, 0.0);
+    vec3 downhill = s.normal - dot(s.normal, up) * up;
+    float slope = length(downhill);
+    vec2 axis_t = vec2(1.0, 0.0);
+    if (slope > 1e-4) {
+        vec2 a = vec2(dot(downhill, s.tangent), dot(downhill, s.bitangent));
+        float len = length(a);
+        axis_t = len > 1e-6 ? a / len : axis_t;
+    }
+    mat2 frame = mat2(axis_t, vec2(-axis_t.y, axis_t.x));  // columns: along, across
+    vec2 ripple_uv = transpose(frame) * s.uv;
+    float steep = smoothstep(0.2, 0.45, slope);
+    vec2 grad_r = mix(texture(u_ripple_shallow, ripple_uv).xy, texture(u_ripple_steep, ripple_uv).xy, steep);
+    vec2 grad = frame * grad_r;
+    grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
+    vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));
+    return to_world(n_t, s);
+}
+
+vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
+    vec3 n = rippled_normal(s);
+    // At grazing views a ripple's back can face away from the eye, where the BRDF is 0: a hard
+    // dark patch that no real ripple shows (its back would be hidden by its crest). Bend such
+    // normals just far enough towards the eye.
+    float facing = dot(n, v);
+    if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
+    float fe = exp(-u_absorption * u_sss);
+    vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
+    vec3 radiance = fe * kd / PI * L.sky_irradiance * (0.5 + 0.5 * n.y);
+    radiance += fe * lambert_sphere(kd, n, L.sun_direction, v) * L.sun_radiance * max(dot(n, L.sun_direction), 0.0);
+    radiance += fe * lambert_sphere(kd, n, L.moon_direction, v) * L.moon_radiance * max(dot(n, L.moon_direction), 0.0);
+    return radiance;
+}
