@@ -11,6 +11,7 @@ from contextlib import contextmanager
 from functools import cache
 
 import moderngl
+import numpy as np
 
 from sand_editor.resources import bench_shaders_dir, shader_source, shaders_dir
 
@@ -203,14 +204,30 @@ def declared_uniforms() -> frozenset[str]:
     )
 
 
-def set_uniform(program, name: str, value) -> None:
-    """Set a uniform the compiler kept: one a shader declares but this program does not use (an
-    optimised-out one, or one of another variant) is skipped; one that no shader declares raises
-    ``UniformError``, so a misspelt name is never skipped silently."""
+def _member(program, name: str):
+    """The program's uniform ``name``; None when a shader declares it but this program does not
+    use it (optimised out, or of another variant); ``UniformError`` when no shader declares it."""
     if name in program:
-        program[name].value = value
-    elif name not in declared_uniforms():
+        return program[name]
+    if name not in declared_uniforms():
         raise UniformError(f"no shader declares the uniform {name!r}")
+    return None
+
+
+def set_uniform(program, name: str, value) -> None:
+    """Set a uniform the compiler kept; one this program does not use is skipped, one that no
+    shader declares raises ``UniformError``, so a misspelt name is never skipped silently."""
+    member = _member(program, name)
+    if member is not None:
+        member.value = value
+
+
+def set_matrix(program, name: str, matrix) -> None:
+    """Set a ``mat4`` uniform from a matrix as numpy writes it (rows first; GLSL reads columns),
+    by the rules of :func:`set_uniform`: the one way matrices reach a program."""
+    member = _member(program, name)
+    if member is not None:
+        member.write(np.asarray(matrix, dtype=np.float32).T.tobytes())
 
 
 def program(ctx: moderngl.Context, name: str, defines: Mapping[str, object] | None = None):

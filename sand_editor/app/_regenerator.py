@@ -242,12 +242,10 @@ class Regenerator(QObject):
             yield generate(job.generation, FIRST_SIZE, ctx=ctx)
         target = generator.allocate(job.size)
         try:
-            for start in range(0, job.size, BAND_ROWS):
+            for _rows in generator.render_in_bands(constants, target, BAND_ROWS):
+                finish_without_gil()
                 if job.serial != self._serial or self._stopping:
                     return
-                stop = min(job.size, start + BAND_ROWS)
-                generator.render(constants, job.size, target, rows=(start, stop))
-                finish_without_gil()
             yield target.read(constants)
         finally:
             target.release()

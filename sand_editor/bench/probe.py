@@ -12,7 +12,7 @@ import time
 import moderngl
 import numpy as np
 
-from sand_editor.gl import drawing_into, program, set_uniform
+from sand_editor.gl import drawing_into, program, set_matrix, set_uniform
 from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.material import SandMaterial, surface_defines
 from sand_editor.render.modes import mode_index
@@ -119,7 +119,7 @@ class MaterialProbe:
             "u_sky_irradiance": self.sky_irradiance,
         }
         for p in (self.program, self.far_program):
-            p["u_view_projection"].write(camera.view_projection.T.astype(np.float32).tobytes())
+            set_matrix(p, "u_view_projection", camera.view_projection)
             p["u_origin"].value = (0.0, 0.0, 0.0)
             for name, value in lights.items():
                 set_uniform(p, name, tuple(float(c) for c in value))

@@ -102,9 +102,8 @@ def generate_progressive(
         yield generate(preset, first_size, ctx=generator.ctx)
     target = generator.allocate(size)
     try:
-        for start in range(0, size, band_rows):
-            generator.render(constants, size, target, rows=(start, min(size, start + band_rows)))
-            if start + band_rows < size:
+        for _start, stop in generator.render_in_bands(constants, target, band_rows):
+            if stop < size:
                 generator.ctx.finish()
                 yield None
         yield target.read(constants)

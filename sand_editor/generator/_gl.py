@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import moderngl
@@ -108,6 +109,18 @@ class GLGenerator:
             self.ctx.viewport = (0, start, size, stop - start)
             draw_fullscreen(self.ctx, self.program)
         return target
+
+    def render_in_bands(
+        self, generation: NoiseConstants, target: GpuSandTextures, band_rows: int
+    ) -> Iterator[tuple[int, int]]:
+        """Draw ``target`` band by band, ``band_rows`` rows at a time, yielding each band's rows
+        (start, stop) once it is drawn (not waited for): the one band loop of every caller,
+        which waits, yields to its event loop or stops between bands as it needs."""
+        size = target.size
+        for start in range(0, size, band_rows):
+            rows = (start, min(size, start + band_rows))
+            self.render(generation, size, target, rows=rows)
+            yield rows
 
     def release(self) -> None:
         """Release the program (a generator of its own; ``gl_generator``'s lives with its

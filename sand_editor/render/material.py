@@ -167,16 +167,12 @@ class SandMaterial:
             self.preset = None  # until every band is drawn
             self._built_for = None
             size = self.texture_size
-            if between_bands is None and cancelled is None:
-                generator.render(constants, size, target=self._grains)
-            else:
-                for start in range(0, size, GENERATION_BAND_ROWS):
-                    rows = (start, min(start + GENERATION_BAND_ROWS, size))
-                    generator.render(constants, size, target=self._grains, rows=rows)
-                    if between_bands is not None:
-                        between_bands()
-                    if cancelled is not None and cancelled():
-                        return False
+            rows = size if between_bands is None and cancelled is None else GENERATION_BAND_ROWS
+            for _rows in generator.render_in_bands(constants, self._grains, rows):
+                if between_bands is not None:
+                    between_bands()
+                if cancelled is not None and cancelled():
+                    return False
         build_key = (generation, *(preset.get(spec.path) for spec in _MOMENT_FIELDS))
         if self._built_for != build_key:
             self._build_textures(preset)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from sand_editor.gl import drawing_into, program, set_uniform
+from sand_editor.gl import drawing_into, program, set_matrix, set_uniform
 from sand_editor.render.camera import Camera
 from sand_editor.render.material import surface_defines
 from sand_editor.render.modes import check_mode, mode_index
@@ -205,8 +205,8 @@ class SandRenderer:
         rotation_only[:3, 3] = 0.0
         inverse = np.linalg.inv(camera.projection.astype(np.float64) @ rotation_only)
         prog = self._sky
+        set_matrix(prog, "u_inverse_view_projection", inverse)
         values = {
-            "u_inverse_view_projection": _matrix(inverse),
             "u_resolution": tuple(float(v) for v in self.post.size),
             "u_sun_direction": _vec(sky.sun_direction),
             "u_sun_radiance": _vec(sky.sun_radiance),
@@ -252,7 +252,7 @@ class SandRenderer:
             mesh.origin
         )
         for prog, vao in zip(self._surfaces, mesh.vaos, strict=True):
-            set_uniform(prog, "u_view_projection", _matrix(view_projection))
+            set_matrix(prog, "u_view_projection", view_projection)
             set_uniform(prog, "u_origin", _vec(mesh.origin))
             vao.render(moderngl.TRIANGLES)
 
@@ -329,10 +329,6 @@ class SandRenderer:
         self._surface.release()
         self._surface_far.release()
         self.post.release()
-
-
-def _matrix(m: np.ndarray) -> tuple[float, ...]:
-    return tuple(float(v) for v in np.asarray(m, dtype=np.float64).T.ravel())
 
 
 def _vec(v) -> tuple[float, float, float]:

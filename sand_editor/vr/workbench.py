@@ -12,7 +12,7 @@ import moderngl
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from sand_editor.gl import program
+from sand_editor.gl import program, set_matrix
 from sand_editor.render.camera import Camera
 from sand_editor.render.terrain import _grid_index, sphere_mesh
 from sand_editor.view import format_time
@@ -246,7 +246,7 @@ class Workbench:
         ctx.viewport = viewport
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
         prog = self._program
-        prog["u_view_projection"].write(_column_major(camera.projection @ camera.view))
+        set_matrix(prog, "u_view_projection", camera.projection @ camera.view)
         prog["u_textured"].value = True
         self._texture.use(location=0)
         prog["u_panel"].value = 0
@@ -305,7 +305,3 @@ def _font(size: int):
     if size not in _FONTS:
         _FONTS[size] = ImageFont.load_default(size=size)
     return _FONTS[size]
-
-
-def _column_major(matrix) -> bytes:
-    return np.asarray(matrix, dtype=np.float32).T.tobytes()
