@@ -267,6 +267,34 @@ def _fullscreen_vao(ctx, program):
     return program.extra
 
 
+class GLObjects:
+    """The GL objects one owner made, released together, the last made first: ``keep(obj)``
+    returns ``obj`` and takes it on; ``release()`` (safe to call twice) releases everything kept,
+    a program drawn with :func:`draw_fullscreen` together with its vertex array. Usable as a
+    context manager, for objects that live for a block."""
+
+    def __init__(self) -> None:
+        self._objects: list = []
+
+    def keep(self, obj):
+        self._objects.append(obj)
+        return obj
+
+    def release(self) -> None:
+        while self._objects:
+            obj = self._objects.pop()
+            if isinstance(obj, moderngl.Program):
+                release_program(obj)
+            else:
+                obj.release()
+
+    def __enter__(self) -> GLObjects:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
 def release_program(program) -> None:
     """Release a program drawn with :func:`draw_fullscreen` and the vertex array it drew with
     (safe to call twice)."""

@@ -12,7 +12,7 @@ import time
 import moderngl
 import numpy as np
 
-from sand_editor.gl import drawing_into, program, set_matrix, set_uniform
+from sand_editor.gl import GLObjects, drawing_into, program, set_matrix, set_uniform
 from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.material import SandMaterial, surface_defines
 from sand_editor.render.modes import mode_index
@@ -76,18 +76,19 @@ class MaterialProbe:
             f"FILTER_{name.upper().replace('-', '_')}": v for name, v in GLINT_FILTERS.items()
         }
         defines = surface_defines(SAND_PROBE=1, **filters)
-        self.program = program(ctx, "terrain.glsl", defines)
-        self.far_program = program(ctx, "terrain.glsl", {**defines, "SAND_FAR_ONLY": 1})
-        self._buffer = ctx.buffer(plane_vertices().tobytes())
+        self._owned = GLObjects()
+        keep = self._owned.keep
+        self.program = keep(program(ctx, "terrain.glsl", defines))
+        self.far_program = keep(program(ctx, "terrain.glsl", {**defines, "SAND_FAR_ONLY": 1}))
+        self._buffer = keep(ctx.buffer(plane_vertices().tobytes()))
+        attributes = ("a_position", "a_normal", "a_tangent", "a_uv")
         self._vaos = [
-            ctx.vertex_array(
-                p, [(self._buffer, "3f 3f 3f 2f", "a_position", "a_normal", "a_tangent", "a_uv")]
-            )
+            keep(ctx.vertex_array(p, [(self._buffer, "3f 3f 3f 2f", *attributes)]))
             for p in (self.program, self.far_program)
         ]
-        self._colour = ctx.texture((width, height), 4, dtype="f4")
-        self._depth = ctx.depth_renderbuffer((width, height))
-        self._fbo = ctx.framebuffer([self._colour], self._depth)
+        self._colour = keep(ctx.texture((width, height), 4, dtype="f4"))
+        self._depth = keep(ctx.depth_renderbuffer((width, height)))
+        self._fbo = keep(ctx.framebuffer([self._colour], self._depth))
         self.sun_direction = np.array([0.0, 0.6, -0.8])
         self.sun_radiance = np.array([3.0, 2.85, 2.6])
         self.sky_irradiance = np.array([0.35, 0.45, 0.6])
@@ -150,6 +151,4 @@ class MaterialProbe:
         return np.ascontiguousarray(pixels[::-1, :, :3]), elapsed_ms
 
     def release(self) -> None:
-        for obj in (*self._vaos, self._buffer, self._fbo, self._colour, self._depth, self.program,
-                    self.far_program):  # fmt: skip
-            obj.release()
+        self._owned.release()

@@ -17,12 +17,12 @@ from sand_editor.generator import SandTextures, check_size, gl_generator
 from sand_editor.generator._gl import GpuSandTextures
 from sand_editor.generator.noise import MAX_LAYERS, NoiseConstants, colour_thresholds
 from sand_editor.gl import (
+    GLObjects,
     build_mipmaps_without_gil,
     draw_fullscreen,
     drawing_into,
     fullscreen_program,
     read_without_gil,
-    release_program,
     set_uniform,
 )
 from sand_editor.preset import FIELDS, Preset
@@ -101,22 +101,24 @@ class SandMaterial:
         self.preset: Preset | None = None
         self.average_albedo = np.zeros(3, dtype=np.float32)
         self.close_cutoff = CLOSE_CUTOFF
-        self._build = fullscreen_program(ctx, "material_build.frag", SHADER_DEFINES)
+        self._owned = GLObjects()
+        keep = self._owned.keep
+        self._build = keep(fullscreen_program(ctx, "material_build.frag", SHADER_DEFINES))
         size = self.texture_size
         # Made once and drawn over by every generation: a material owns a fixed set of objects.
         self._grains = GpuSandTextures.allocate(ctx, size)
         self._built_for = None
         # Albedo is fine in half floats; the moments are not: the glint estimate subtracts
         # second moments and the hole from their means, which half floats round away.
-        self.albedo = self._filterable(ctx.texture((size, size), 4, dtype="f2"))
+        self.albedo = keep(self._filterable(ctx.texture((size, size), 4, dtype="f2")))
         self.glint_moments, self.spread_moments = (
-            self._filterable(ctx.texture((size, size), 4, dtype="f4")) for _ in range(2)
+            keep(self._filterable(ctx.texture((size, size), 4, dtype="f4"))) for _ in range(2)
         )
-        self.hole_moments = self._filterable(ctx.texture((size, size), 1, dtype="f4"))
+        self.hole_moments = keep(self._filterable(ctx.texture((size, size), 1, dtype="f4")))
         self._built = (self.albedo, self.glint_moments, self.spread_moments, self.hole_moments)
         for texture in self._built:
             texture.build_mipmaps()  # the levels, made once; each build refills them
-        self._build_fbo = ctx.framebuffer(list(self._built))
+        self._build_fbo = keep(ctx.framebuffer(list(self._built)))
         self.ripple_steep = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 14, 3, 0.9, seed=1))
         self.ripple_shallow = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 9, 2, 0.5, seed=2))
         self.detail = self._map(detail_slopes(RIPPLE_MAP_SIZE, seed=3))
@@ -129,7 +131,9 @@ class SandMaterial:
         return texture
 
     def _map(self, slopes: np.ndarray) -> moderngl.Texture:
-        texture = self.ctx.texture(slopes.shape[1::-1], 2, slopes.tobytes(), dtype="f4")
+        texture = self._owned.keep(
+            self.ctx.texture(slopes.shape[1::-1], 2, slopes.tobytes(), dtype="f4")
+        )
         self._filterable(texture)
         texture.build_mipmaps()
         return texture
@@ -275,15 +279,4 @@ class SandMaterial:
         if self._grains is not None:
             self._grains.release()
             self._grains = None
-        release_program(self._build)
-        for obj in (
-            self._build_fbo,
-            self.albedo,
-            self.glint_moments,
-            self.spread_moments,
-            self.hole_moments,
-            self.ripple_steep,
-            self.ripple_shallow,
-            self.detail,
-        ):
-            obj.release()
+        self._owned.release()

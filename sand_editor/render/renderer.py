@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from sand_editor.gl import drawing_into, program, set_matrix, set_uniform
+from sand_editor.gl import GLObjects, drawing_into, program, set_matrix, set_uniform
 from sand_editor.render.camera import Camera
 from sand_editor.render.material import surface_defines
 from sand_editor.render.modes import check_mode, mode_index
@@ -93,11 +93,13 @@ class SandRenderer:
         self.post = PostChain(ctx)
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
         # shades what lies within the material's close range, the far one only the far term.
-        self._surface = program(ctx, "terrain.glsl", surface_defines())
-        self._surface_far = program(ctx, "terrain.glsl", surface_defines(SAND_FAR_ONLY=1))
+        self._owned = GLObjects()
+        keep = self._owned.keep
+        self._surface = keep(program(ctx, "terrain.glsl", surface_defines()))
+        self._surface_far = keep(program(ctx, "terrain.glsl", surface_defines(SAND_FAR_ONLY=1)))
         self._surfaces = (self._surface, self._surface_far)
-        self._sky = program(ctx, "sky.glsl")
-        self._sky_vao = ctx.vertex_array(self._sky, [])
+        self._sky = keep(program(ctx, "sky.glsl"))
+        self._sky_vao = keep(ctx.vertex_array(self._sky, []))
         self._terrain_mesh: _Mesh | None = None
         self._terrain_key = None
         self._sphere_mesh: _Mesh | None = None
@@ -324,10 +326,7 @@ class SandRenderer:
         self._terrain_mesh = self._sphere_mesh = None
         self._terrain_key = self._sphere_key = None
         self._release_readback()
-        self._sky_vao.release()
-        self._sky.release()
-        self._surface.release()
-        self._surface_far.release()
+        self._owned.release()
         self.post.release()
 
 

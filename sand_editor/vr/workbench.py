@@ -12,7 +12,7 @@ import moderngl
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from sand_editor.gl import program, set_matrix
+from sand_editor.gl import GLObjects, program, set_matrix
 from sand_editor.render.camera import Camera
 from sand_editor.render.terrain import _grid_index, sphere_mesh
 from sand_editor.view import format_time
@@ -265,28 +265,28 @@ class Workbench:
 
     def _create(self, ctx: moderngl.Context) -> None:
         self._ctx = ctx
-        self._program = program(ctx, "vr_overlay.glsl")
+        self._owned = GLObjects()
+        keep = self._owned.keep
+        self._program = keep(program(ctx, "vr_overlay.glsl"))
         corners = self.panel.corners()
         uv = np.array([(0, 0), (1, 0), (1, 1), (0, 1)], float)
         vertices = np.hstack([corners, uv]).astype(np.float32)
-        self._panel_buffer = ctx.buffer(vertices.tobytes())
-        self._panel_vao = ctx.vertex_array(
-            self._program, [(self._panel_buffer, "3f 2f", "a_position", "a_uv")]
+        self._panel_buffer = keep(ctx.buffer(vertices.tobytes()))
+        self._panel_vao = keep(
+            ctx.vertex_array(self._program, [(self._panel_buffer, "3f 2f", "a_position", "a_uv")])
         )
-        self._ray_buffer = ctx.buffer(reserve=2 * 5 * 4)
-        self._ray_vao = ctx.vertex_array(
-            self._program, [(self._ray_buffer, "3f 2x4", "a_position")]
+        self._ray_buffer = keep(ctx.buffer(reserve=2 * 5 * 4))
+        self._ray_vao = keep(
+            ctx.vertex_array(self._program, [(self._ray_buffer, "3f 2x4", "a_position")])
         )
-        self._texture = ctx.texture(PANEL_PIXELS, 3)
+        self._texture = keep(ctx.texture(PANEL_PIXELS, 3))
         self._texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         self._panel_key = None
 
     def release(self) -> None:
         if self._ctx is None:
             return
-        for obj in (self._panel_vao, self._ray_vao, self._panel_buffer, self._ray_buffer,
-                    self._texture, self._program):  # fmt: skip
-            obj.release()
+        self._owned.release()
         self._ctx = None
 
 

@@ -103,3 +103,19 @@ def test_drawing_into_after_the_bound_framebuffer_was_released(gl_clean):
     finally:
         framebuffer.release()
         texture.release()
+
+
+def test_gl_objects_releases_everything_it_kept_once_last_made_first(gl_clean):
+    from sand_editor.gl import GLObjects, fullscreen_program
+
+    before = live_gl_objects(gl_clean)
+    with GLObjects() as owned:
+        texture = owned.keep(gl_clean.texture((8, 8), 4))
+        framebuffer = owned.keep(gl_clean.framebuffer([texture]))
+        program = owned.keep(fullscreen_program(gl_clean, "upscale.frag"))
+        with drawing_into(gl_clean, framebuffer):
+            draw_fullscreen(gl_clean, program)  # makes the program's vertex array
+        assert live_gl_objects(gl_clean)["VertexArray"] == before["VertexArray"] + 1
+    assert live_gl_objects(gl_clean) == before
+    owned.release()  # twice is harmless
+    assert live_gl_objects(gl_clean) == before
