@@ -167,6 +167,16 @@ def _cmd_bench(args) -> int:
         from sand_editor.app._bench import main as bench_editor
 
         return bench_editor(quick=args.quick, json_path=args.json)
+    if args.what in ("vr-link", "vr-runtime"):
+        if args.sizes or args.plot:
+            raise CommandError(f"--sizes and --plot do not apply to the {args.what} benchmark")
+        if args.what == "vr-link":
+            from sand_editor.app._bench_vr_link import main as bench_vr_link
+
+            return bench_vr_link(quick=args.quick, json_path=args.json)
+        from sand_editor.bench.vr_runtime import main as bench_vr_runtime
+
+        return bench_vr_runtime(quick=args.quick, json_path=args.json)
     raise CommandError(f"unknown benchmark {args.what!r}")
 
 
@@ -244,7 +254,11 @@ def _parser() -> argparse.ArgumentParser:
     vr.set_defaults(run=_cmd_vr)
 
     bench = sub.add_parser("bench", help="measure speed against error")
-    bench.add_argument("what", choices=["generator", "render", "editor"], help="what to measure")
+    bench.add_argument(
+        "what",
+        choices=["generator", "render", "editor", "vr-link", "vr-runtime"],
+        help="what to measure",
+    )
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
     bench.add_argument(
         "--sizes", type=int, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"

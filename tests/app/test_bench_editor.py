@@ -33,3 +33,19 @@ def test_bench_editor_refuses_options_it_does_not_take():
     result = run_python("-m", "sand_editor", "bench", "editor", "--plot", "x.png")
     assert result.returncode == 1
     assert "--plot" in result.stderr
+
+
+@pytest.mark.slow
+def test_bench_vr_link_times_both_kinds_of_edit(tmp_path):
+    out = tmp_path / "vr-link.json"
+    result = run_python(
+        "-m", "sand_editor", "bench", "vr-link", "--quick", "--json", str(out), timeout=400
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    summary = json.loads(out.read_text())["summary"]
+    assert [row["edit"] for row in summary] == ["shading", "generation"]
+    for row in summary:
+        assert row["edits"] == 3
+        times = row["edit_to_screen_ms"]
+        assert 0.0 < times["median"] <= times["p90"] <= times["max"]
+    assert "| 48×36 | generation | 3 |" in result.stdout

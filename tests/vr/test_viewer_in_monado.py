@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import queue
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -144,3 +145,16 @@ def test_no_headset_controllers_means_no_hands_bound(monado_harness, report_dir)
     report = json.loads(report_path.read_text())
     assert report["errors"] == []
     assert report["interaction_profiles"] == {"left": None, "right": None}
+
+
+def test_bench_vr_runtime_reports_the_session_and_the_edit(monado_harness, tmp_path):
+    out = tmp_path / "vr-runtime.json"
+    result = subprocess.run(
+        [sys.executable, "-m", "sand_editor", "bench", "vr-runtime", "--quick", "--json", str(out)],
+        cwd=REPO, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    report = json.loads(out.read_text())
+    assert report["frames_submitted"] == 100 and report["errors"] == []
+    assert report["edit_applied"]["type"] == "applied"
+    assert "| edit received → on screen (`applied`) |" in result.stdout

@@ -3,47 +3,48 @@
 Runs ``sand-editor vr --control stdio --frames N --report`` inside ``tools/monado/run`` (Monado,
 simulated headset and Windows Mixed Reality controllers), sends one preset edit over the link a
 few seconds after the first frame so that new grains are made while frames are submitted, and
-prints the report's figures as a table. Needs root (the harness's namespaces).
+prints the report's figures as a table. Needs a checkout (the harness is tools/monado, not part
+of the package) and root (the harness's namespaces):
 
-    .venv/bin/python tools/bench-vr-runtime.py [--frames N] [--edit-after S] [--json FILE]
+    sand-editor bench vr-runtime [--quick] [--json FILE]
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import queue
 import subprocess
-import sys
 import tempfile
 import threading
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
+from sand_editor.preset import Preset
+from sand_editor.resources import bundled_preset
+from sand_editor.vr.link import decode, encode
 
-from sand_editor.preset import Preset  # noqa: E402
-from sand_editor.resources import bundled_preset  # noqa: E402
-from sand_editor.vr.link import decode, encode  # noqa: E402
-
+REPO = Path(__file__).resolve().parents[2]  # the checkout, in a source tree
+HARNESS = REPO / "tools" / "monado" / "run"
 TIMEOUT_S = 500
+EDIT_AFTER_S = 2.0  # the edit comes this long after the first frame
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=300)
-    parser.add_argument("--edit-after", type=float, default=2.0, help="seconds after ready")
-    parser.add_argument("--json", help="write the viewer's report here")
-    args = parser.parse_args()
+def main(quick: bool = False, json_path: str | None = None) -> int:
+    """300 frames (``quick``: 100), one edit 2 s after the first."""
+    frames = 100 if quick else 300
+    if not HARNESS.is_file():
+        raise SystemExit(
+            f"sand-editor bench vr-runtime: needs the OpenXR test harness {HARNESS} "
+            "(a checkout of the repository, not an installed package)"
+        )
 
     # The report must be written where the harness's root sees it: inside the checkout.
     scratch = Path(tempfile.mkdtemp(prefix=".bench-vr-", dir=REPO))
     report_path = scratch / "report.json"
     command = [
-        str(REPO / "tools/monado/run"), "--controllers", "wmr", "--timeout", str(TIMEOUT_S),
+        str(HARNESS), "--controllers", "wmr", "--timeout", str(TIMEOUT_S),
         "python", "-m", "sand_editor", "vr", "--control", "stdio",
-        "--frames", str(args.frames), "--report", str(report_path),
+        "--frames", str(frames), "--report", str(report_path),
     ]  # fmt: skip
     viewer = subprocess.Popen(
         command, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
@@ -67,7 +68,7 @@ def main() -> int:
 
     try:
         expect("ready")
-        time.sleep(args.edit_after)
+        time.sleep(EDIT_AFTER_S)
         edit = Preset.load(bundled_preset("red-desert")).replace(name="edited")
         viewer.stdin.write(encode("preset", preset=edit.to_dict(), seq=1))
         viewer.stdin.flush()
@@ -96,10 +97,6 @@ def main() -> int:
           f"{report['max_frame_gap_while_regenerating_ms']:.1f} | |")  # fmt: skip
     print(f"| edit received → on screen (`applied`) | {applied.get('ms', float('nan')):.0f} | |")
     print(f"errors: {report['errors'] or 'none'}; hands: {report['interaction_profiles']}")
-    if args.json:
-        Path(args.json).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    if json_path:
+        Path(json_path).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
     return 0 if applied.get("type") == "applied" and not report["errors"] else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -4,23 +4,21 @@ Opens the editor window, starts the desktop stereo preview from it (the same pro
 frame loop as a headset), makes edits through the preset model as a control would, and times
 each from the edit to the viewer's "applied" answer. Generation edits make new grains in the
 viewer; their generation time, measured apart on a headless context at the viewer's texture
-size, is subtracted to give the link's own share. Needs a display (run it under xvfb-run).
+size, is subtracted to give the link's own share. Needs a display (run it under xvfb-run):
 
-    xvfb-run -a .venv/bin/python tools/bench-vr-link.py [--edits N] [--render-scale S ...]
-        [--json FILE]
+    xvfb-run -a sand-editor bench vr-link [--quick] [--json FILE]
+
+It drives Qt, so it lives with the editor; only the bench command runs it.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
 import statistics
 import sys
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
 READY_TIMEOUT_S = 180.0
 APPLIED_TIMEOUT_S = 60.0
 SETTLE_S = 0.3  # between edits, so each is timed alone
@@ -31,7 +29,7 @@ def _wait(app, condition, timeout_s: float, what: str) -> None:
     deadline = time.perf_counter() + timeout_s
     while not condition():
         if time.perf_counter() > deadline:
-            raise SystemExit(f"bench-vr-link: timed out waiting for {what}")
+            raise SystemExit(f"sand-editor bench vr-link: timed out waiting for {what}")
         app.processEvents()
         time.sleep(0.002)
 
@@ -106,7 +104,9 @@ def _run_viewer(app, window, render_scale: float, edits: int) -> tuple[dict, dic
     window.vr.start(desktop=True)
     _wait(app, lambda: link.is_ready or not link.running, READY_TIMEOUT_S, "the first frame")
     if not link.is_ready:
-        raise SystemExit("bench-vr-link: the viewer did not start:\n" + link.stderr_tail())
+        raise SystemExit(
+            "sand-editor bench vr-link: the viewer did not start:\n" + link.stderr_tail()
+        )
     info = link.ready_info
     try:
         return info, _measure_link(app, window, ("shading", "generation"), edits)
@@ -157,23 +157,9 @@ def _print_table(system: str, table: list[dict]) -> None:
         )
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--edits", type=int, default=10, help="edits of each kind")
-    parser.add_argument(
-        "--render-scale",
-        type=float,
-        nargs="+",
-        default=[0.1, 0.5],
-        help="the viewer's eye size factors to run (1 = 480×360 per eye)",
-    )
-    parser.add_argument("--json", help="write the results to this file")
-    args = parser.parse_args(argv)
-
-    sys.path.insert(0, str(REPO))
-    os.environ["PYTHONPATH"] = os.pathsep.join(
-        filter(None, [str(REPO), os.environ.get("PYTHONPATH")])
-    )
+def main(quick: bool = False, json_path: str | None = None) -> int:
+    """10 edits of each kind at eye sizes 0.1 and 0.5 of 480×360 (``quick``: 3 edits, 0.1)."""
+    edits, render_scales = (3, [0.1]) if quick else (10, [0.1, 0.5])
     from PySide6.QtWidgets import QApplication
 
     from sand_editor.app import EditorWindow
@@ -184,15 +170,15 @@ def main(argv: list[str] | None = None) -> int:
     window = EditorWindow(Preset.load(bundled_preset("paper-default")))
     window.show()
     _wait(app, lambda: window.preview.textures is not None, READY_TIMEOUT_S, "the editor")
-    runs = [(scale, *_run_viewer(app, window, scale, args.edits)) for scale in args.render_scale]
-    generation = _generation_ms(window.model.preset, args.edits)
+    runs = [(scale, *_run_viewer(app, window, scale, edits)) for scale in render_scales]
+    generation = _generation_ms(window.model.preset, edits)
     table = [
         row
         for scale, info, link_rows in runs
         for row in _table_rows(info, scale, link_rows, statistics.median(generation))
     ]
     _print_table(runs[0][1]["system"], table)
-    if args.json:
+    if json_path:
         document = {
             "viewer": runs[0][1]["system"],
             "texture_size": VIEWER_TEXTURE_SIZE,
@@ -203,11 +189,7 @@ def main(argv: list[str] | None = None) -> int:
             ],
             "summary": table,
         }
-        Path(args.json).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+        Path(json_path).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
     window.model.undo_stack.setClean()
     window.close()
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
