@@ -247,6 +247,22 @@ def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | Non
     )
 
 
+@contextmanager
+def render_state(ctx: moderngl.Context, flags: int = 0, blend_func=None) -> Iterator[None]:
+    """Exactly ``flags`` (``moderngl.DEPTH_TEST | …``) enabled for a block, and none after it:
+    a pass never inherits blending, depth testing or culling from another pass or from a host
+    (Qt leaves blending on). ``blend_func`` applies for the block, the default after it."""
+    ctx.enable_only(flags)
+    if blend_func is not None:
+        ctx.blend_func = blend_func
+    try:
+        yield
+    finally:
+        if blend_func is not None:
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+        ctx.enable_only(moderngl.NOTHING)
+
+
 def draw_fullscreen(ctx: moderngl.Context, program, *, blend: bool = False) -> None:
     """Draw the fullscreen triangle with ``program`` (release it with :func:`release_program`).
 

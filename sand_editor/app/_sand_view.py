@@ -211,7 +211,7 @@ class SandView(QOpenGLWidget):
         gl = self.gl
         # Qt leaves its own state behind (blending, for one): the material's passes start
         # from none.
-        gl.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        gl.ctx.enable_only(moderngl.NOTHING)
         if self._pending_grains is not None:
             textures, generation = self._pending_grains
             self._pending_grains = None

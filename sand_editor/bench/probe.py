@@ -12,7 +12,14 @@ import time
 import moderngl
 import numpy as np
 
-from sand_editor.gl import GLObjects, drawing_into, program, set_matrix, set_uniform
+from sand_editor.gl import (
+    GLObjects,
+    drawing_into,
+    program,
+    render_state,
+    set_matrix,
+    set_uniform,
+)
 from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.material import SandMaterial, surface_defines
 from sand_editor.render.modes import mode_index
@@ -132,15 +139,15 @@ class MaterialProbe:
                 set_uniform(p, name, value)  # the far-only variant has no glints
         with drawing_into(self.ctx, self._fbo):
             self.ctx.viewport = (0, 0, self.width, self.height)
-            self.ctx.enable(moderngl.DEPTH_TEST)
             self.ctx.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self.ctx.finish()
             if lower_half:
                 self.ctx.scissor = (0, 0, self.width, self.height // 2)
             start = time.perf_counter()
             try:
-                for vao in self._vaos:
-                    vao.render(moderngl.TRIANGLES)
+                with render_state(self.ctx, moderngl.DEPTH_TEST):
+                    for vao in self._vaos:
+                        vao.render(moderngl.TRIANGLES)
                 self.ctx.finish()
             finally:
                 self.ctx.scissor = None

@@ -14,6 +14,7 @@ from sand_editor.gl import (
     drawing_into,
     fullscreen_program,
     release_program,
+    render_state,
     set_uniform,
 )
 
@@ -63,22 +64,17 @@ class PostChain:
     def bloom(self) -> None:
         """Fill the bloom chain from the scene: level 0 ends up holding the sum of all levels."""
         ctx = self.ctx
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         source = self.scene_texture
-        for texture, framebuffer in self._levels:
-            self._pass(self._downsample, source, framebuffer, texture.size)
-            source = texture
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_func = moderngl.ONE, moderngl.ONE
-        try:
+        with render_state(ctx):
+            for texture, framebuffer in self._levels:
+                self._pass(self._downsample, source, framebuffer, texture.size)
+                source = texture
+        with render_state(ctx, moderngl.BLEND, blend_func=(moderngl.ONE, moderngl.ONE)):
             self._upsample["u_radius"].value = UPSAMPLE_RADIUS
             for (texture, _), (_, larger) in zip(
                 reversed(self._levels[1:]), reversed(self._levels[:-1]), strict=True
             ):
                 self._pass(self._upsample, texture, larger, larger.size, blend=True)
-        finally:
-            ctx.blend_func = moderngl.DEFAULT_BLENDING
-            ctx.disable(moderngl.BLEND)
 
     def finish(
         self,
@@ -97,7 +93,6 @@ class PostChain:
         if use_bloom:
             self.bloom()
         ctx = self.ctx
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         program = self._resolve
         bloom_texture = self._levels[0][0]
         bloom_texture.use(location=1)
@@ -108,7 +103,8 @@ class PostChain:
         set_uniform(program, "u_tone_map", bool(tone_map))
         saved_viewport = target_fbo.viewport
         try:
-            self._pass(program, self.scene_texture, target_fbo, viewport[2:], viewport[:2])
+            with render_state(ctx):
+                self._pass(program, self.scene_texture, target_fbo, viewport[2:], viewport[:2])
         finally:
             target_fbo.viewport = saved_viewport
 

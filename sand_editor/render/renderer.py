@@ -11,7 +11,14 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from sand_editor.gl import GLObjects, drawing_into, program, set_matrix, set_uniform
+from sand_editor.gl import (
+    GLObjects,
+    drawing_into,
+    program,
+    render_state,
+    set_matrix,
+    set_uniform,
+)
 from sand_editor.render.camera import Camera
 from sand_editor.render.material import surface_defines
 from sand_editor.render.modes import check_mode, mode_index
@@ -167,14 +174,10 @@ class SandRenderer:
             if not debug:
                 self._draw_sky(camera, sky)
             times["sky_ms"] = _lap(start)
-            ctx.enable(moderngl.DEPTH_TEST)
-            ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
-            try:
+            with render_state(ctx, moderngl.DEPTH_TEST):
                 self._prepare_surface(camera, sky, mode)
                 for mesh in (scene.terrain, *scene.objects):
                     self._draw(mesh, camera)
-            finally:
-                ctx.disable(moderngl.DEPTH_TEST)
             times["surface_ms"] = _lap(start) - times["sky_ms"]
         self.post.finish(
             target,
@@ -225,8 +228,8 @@ class SandRenderer:
         }
         for name, value in values.items():
             set_uniform(prog, name, value)
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
-        self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
+        with render_state(self.ctx):
+            self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
 
     def _prepare_surface(self, camera: Camera, sky: SkyState, mode: str) -> None:
         for prog in self._surfaces:

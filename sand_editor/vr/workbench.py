@@ -12,7 +12,7 @@ import moderngl
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from sand_editor.gl import GLObjects, program, set_matrix
+from sand_editor.gl import GLObjects, program, render_state, set_matrix
 from sand_editor.render.camera import Camera
 from sand_editor.render.terrain import _grid_index, sphere_mesh
 from sand_editor.view import format_time
@@ -244,7 +244,10 @@ class Workbench:
             self._texture.build_mipmaps()
             self._panel_key = key
         ctx.viewport = viewport
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+        with render_state(ctx):
+            self._draw_overlay(camera, rays)
+
+    def _draw_overlay(self, camera: Camera, rays) -> None:
         prog = self._program
         set_matrix(prog, "u_view_projection", camera.projection @ camera.view)
         prog["u_textured"].value = True

@@ -119,3 +119,37 @@ def test_gl_objects_releases_everything_it_kept_once_last_made_first(gl_clean):
     assert live_gl_objects(gl_clean) == before
     owned.release()  # twice is harmless
     assert live_gl_objects(gl_clean) == before
+
+
+def test_render_state_sets_exactly_its_flags_and_leaves_none_behind(gl_clean):
+    import moderngl
+
+    from sand_editor.gl import release_program, render_state
+
+    program = gl_clean.program(
+        vertex_shader=shader_text("fullscreen.vert"),
+        fragment_shader="#version 330\nout vec4 c;\nvoid main() { c = vec4(0.25, 0, 0, 1); }",
+    )
+    texture = gl_clean.texture((4, 4), 4)
+    framebuffer = gl_clean.framebuffer([texture])
+
+    def red_after_two_draws() -> int:
+        with drawing_into(gl_clean, framebuffer):
+            gl_clean.viewport = (0, 0, 4, 4)
+            framebuffer.clear()
+            for _ in range(2):
+                draw_fullscreen(gl_clean, program, blend=True)  # keeps whatever blending is on
+        return int(np.frombuffer(framebuffer.read(components=4), np.uint8)[0])
+
+    try:
+        gl_clean.enable(moderngl.BLEND)  # as a host leaves it
+        gl_clean.blend_func = moderngl.ONE, moderngl.ONE
+        with render_state(gl_clean):
+            assert red_after_two_draws() == 64, "no blending inside a plain render state"
+        with render_state(gl_clean, moderngl.BLEND, blend_func=(moderngl.ONE, moderngl.ONE)):
+            assert red_after_two_draws() == 128, "adding blend inside its block"
+        assert red_after_two_draws() == 64, "and none after it"
+    finally:
+        release_program(program)
+        framebuffer.release()
+        texture.release()
