@@ -158,7 +158,7 @@ class ViewerControls:
 
     def advanced(self, seconds: float) -> ViewerControls:
         """The clock after ``seconds`` of real time (a paused day stands still)."""
-        if not self.playing or not math.isfinite(seconds) or seconds <= 0:
+        if not self.playing:
             return self
         return replace(self, hours=advance(self.hours, seconds, self.day_speed))
 

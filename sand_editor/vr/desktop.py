@@ -13,7 +13,7 @@ import time
 from contextlib import contextmanager
 
 from sand_editor.vr.actions import HandInput, InputState
-from sand_editor.vr.loop import EyeView, Frame
+from sand_editor.vr.backend import EyeView, Frame
 from sand_editor.vr.xrmath import Fov, Pose
 
 EYE_SIZE = (480, 360)

@@ -30,7 +30,7 @@ from sand_editor.vr.actions import (
     apply_command,
     commands_from_input,
 )
-from sand_editor.vr.backend import Backend, EyeView, Frame  # noqa: F401 - the backends' types
+from sand_editor.vr.backend import EyeView, Frame
 from sand_editor.vr.errors import NoHeadsetError
 from sand_editor.vr.grains import GrainWorker
 from sand_editor.vr.workbench import Workbench

@@ -16,8 +16,8 @@ from contextlib import ExitStack, contextmanager, suppress
 import xr
 
 from sand_editor.vr.actions import ACTIONS, BINDINGS, HANDS, InputState, binding_paths
+from sand_editor.vr.backend import EyeView, Frame
 from sand_editor.vr.errors import RUNTIME_HELP, GraphicsError, NoHeadsetError, NoRuntimeError
-from sand_editor.vr.loop import EyeView, Frame
 from sand_editor.vr.xr_input import ControllerInput, as_pose
 from sand_editor.vr.xr_swapchains import STEREO, EyeSwapchains
 from sand_editor.vr.xrmath import Fov
