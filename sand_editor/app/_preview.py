@@ -85,8 +85,8 @@ class PreviewPanel(QWidget):
         self.view_model = view_model if view_model is not None else ViewModel()
         self.view3d = None  # the 3D panel, made when its tab is first shown
         self._textures: SandTextures | None = None
-        # The latest full tile and its generation parameters, for the 3D view.
-        self._grains: tuple[SandTextures, object] | None = None
+        # The latest full tile (it names its generation), for the 3D view.
+        self._grains: SandTextures | None = None
         self._image = QImage()
         self._target_size = DEFAULT_PREVIEW_SIZE
 
@@ -158,7 +158,7 @@ class PreviewPanel(QWidget):
             # which an editor that never opens this tab does not need to pay for.
             self.view3d = View3DPanel(self._model, self.view_model)
             if self._grains is not None:
-                self.view3d.view.set_grains(*self._grains)
+                self.view3d.view.set_grains(self._grains)
             self.pages.addWidget(self.view3d)
         for widget in self._texture_options:
             widget.setVisible(not is_3d)
@@ -166,11 +166,11 @@ class PreviewPanel(QWidget):
         if not is_3d:
             self._rebuild_image()
 
-    def set_grains(self, textures: SandTextures, generation) -> None:
+    def set_grains(self, textures: SandTextures) -> None:
         """A full tile for the 3D view (which uploads it the next time it draws)."""
-        self._grains = (textures, generation)
+        self._grains = textures
         if self.view3d is not None:
-            self.view3d.view.set_grains(textures, generation)
+            self.view3d.view.set_grains(textures)
 
     def release_gl(self) -> None:
         """Release the 3D view's GL objects (before the window closes)."""

@@ -246,6 +246,6 @@ class Regenerator(QObject):
                 finish_without_gil()
                 if job.serial != self._serial or self._stopping:
                     return
-            yield target.read(constants)
+            yield target.read(constants, job.generation)
         finally:
             target.release()

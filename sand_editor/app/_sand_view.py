@@ -3,7 +3,6 @@ QOpenGLWidget, at reduced resolution while anything changes and refined in bands
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 
@@ -85,8 +84,7 @@ class SandView(QOpenGLWidget):
         self.show_sphere = False
         self.moving_scale = 0.5
         self._preset = preset
-        self._pending_grains: tuple[SandTextures, object] | None = None
-        self._grains_generation = None  # generation parameters of the uploaded grains
+        self._pending_grains: SandTextures | None = None
         self._material_stale = True
         self._moving = False
         self._refined_rows = 0  # rows of the full-resolution frame drawn since the last change
@@ -116,7 +114,8 @@ class SandView(QOpenGLWidget):
     @property
     def grains_generation(self):
         """The generation parameters of the grains the view draws with (None before any)."""
-        return self._grains_generation
+        material = self.gl.material
+        return None if material is None else material.grains_generation
 
     @property
     def at_rest(self) -> bool:
@@ -138,13 +137,18 @@ class SandView(QOpenGLWidget):
         self.changing()
 
     def set_preset(self, preset: Preset) -> None:
+        shading_changed = preset.shading != self._preset.shading
         self._preset = preset
         self._material_stale = True
-        self.changing()
+        if shading_changed or preset.generation == self.grains_generation:
+            self.changing()
+        # else only the generation changed: the view redraws when its tile arrives, never
+        # before with the grains it has.
 
-    def set_grains(self, textures: SandTextures, generation) -> None:
-        """A full tile of ``generation`` from the editor's generation, uploaded when next drawn."""
-        self._pending_grains = (textures, generation)
+    def set_grains(self, textures: SandTextures) -> None:
+        """A full tile from the editor's generation (it names its own), uploaded when next
+        drawn."""
+        self._pending_grains = textures
         self._material_stale = True
         self.changing()
 
@@ -213,26 +217,19 @@ class SandView(QOpenGLWidget):
         # from none.
         gl.ctx.enable_only(moderngl.NOTHING)
         if self._pending_grains is not None:
-            textures, generation = self._pending_grains
-            self._pending_grains = None
+            textures, self._pending_grains = self._pending_grains, None
             if gl.material is None or gl.material.texture_size != textures.size:
                 if gl.material is not None:
                     gl.material.release()
                 gl.material = SandMaterial(gl.ctx, textures.size)
                 gl.renderer.set_material(gl.material)
-            self._grains_generation = generation
-            gl.material.set_grains(self._material_preset(), textures)
+            gl.material.update(self._preset, grains=textures)
             self.grain_uploads += 1
         elif self._material_stale and gl.material is not None:
-            gl.material.update(self._material_preset())
+            if self._preset.generation != gl.material.grains_generation:
+                return  # the view never makes grains: the edit shows with its tile
+            gl.material.update(self._preset)
         self._material_stale = False
-
-    def _material_preset(self) -> Preset:
-        # The shading of the current preset on the grains the view has: a generation edit
-        # shows once its tile arrives, and the material never generates grains itself.
-        if self._preset.generation == self._grains_generation:
-            return self._preset
-        return dataclasses.replace(self._preset, generation=self._grains_generation)
 
     def paintGL(self) -> None:
         if self.renderer is None or self.error is not None:

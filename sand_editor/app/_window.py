@@ -368,7 +368,7 @@ class EditorWindow(WindowFiles, QMainWindow):
     def _show_tile(self, textures: SandTextures, final: bool) -> None:
         self.preview.show_textures(textures, final)
         if final:
-            self.preview.set_grains(textures, self.regenerator.generation)
+            self.preview.set_grains(textures)
 
     def _show_statistics(self, textures: SandTextures, seconds: float) -> None:
         stats = self.regenerator.statistics

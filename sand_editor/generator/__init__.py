@@ -58,19 +58,20 @@ def gl_generator(ctx=None):
 def generate(preset, size: int, backend: str = "gl", ctx=None) -> SandTextures:
     """Generate the grain textures of a preset (or its ``generation`` section) at size×size."""
     size = check_size(size)
-    constants = NoiseConstants.from_generation(_generation(preset))
+    generation = _generation(preset)
+    constants = NoiseConstants.from_generation(generation)
     if backend == "gl":
         gpu = gl_generator(ctx).render(constants, size)
         try:
-            return gpu.read(constants)
+            return gpu.read(constants, generation)
         finally:
             gpu.release()
     if backend == "reference":
-        return _generate_reference(constants, size)
+        return _generate_reference(constants, size, generation)
     raise ValueError(f"unknown backend {backend!r}; allowed: {', '.join(BACKENDS)}")
 
 
-def _generate_reference(nc: NoiseConstants, size: int) -> SandTextures:
+def _generate_reference(nc: NoiseConstants, size: int, generation) -> SandTextures:
     from sand_editor.generator.reference import evaluate
 
     ys, xs = np.divmod(np.arange(size * size), size)
@@ -82,6 +83,7 @@ def _generate_reference(nc: NoiseConstants, size: int) -> SandTextures:
         glint=values["glint"].reshape(size, size).astype(np.float32),
         layer=values["layer"].reshape(size, size),
         grain_id=values["grain"].reshape(size, size),
+        generation=generation,
     )
 
 
@@ -96,7 +98,8 @@ def generate_progressive(
     """
     size = check_size(size)
     first_size = check_size(min(first_size, size))
-    constants = NoiseConstants.from_generation(_generation(preset))
+    generation = _generation(preset)
+    constants = NoiseConstants.from_generation(generation)
     generator = gl_generator(ctx)
     if first_size < size:
         yield generate(preset, first_size, ctx=generator.ctx)
@@ -106,6 +109,6 @@ def generate_progressive(
             if stop < size:
                 generator.ctx.finish()
                 yield None
-        yield target.read(constants)
+        yield target.read(constants, generation)
     finally:
         target.release()

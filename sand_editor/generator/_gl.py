@@ -41,8 +41,11 @@ class GpuSandTextures:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return cls(size, nh, lg, ctx.framebuffer(color_attachments=[nh, lg]))
 
-    def read(self, constants: NoiseConstants) -> SandTextures:
-        """Copy the textures to numpy arrays (a GPU → CPU read-back) and colour the grains."""
+    def read(self, constants: NoiseConstants, generation=None) -> SandTextures:
+        """Copy the textures to numpy arrays (a GPU → CPU read-back) and colour the grains.
+
+        ``generation``, the parameters ``constants`` came from, travels with the textures.
+        """
         n = self.size
         # The wait for the draws leaves Python free for other threads; the copies hold it.
         nh = np.frombuffer(read_without_gil(self.normal_height), dtype=np.float32).reshape(n, n, 4)
@@ -59,6 +62,7 @@ class GpuSandTextures:
             glint=glint,
             layer=layer,
             grain_id=grain,
+            generation=generation,
         )
 
     def release(self) -> None:

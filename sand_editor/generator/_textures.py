@@ -19,6 +19,8 @@ class SandTextures:
     glint : (size, size) float32 in [0, 1], the grain's glint value on the top layer, else 0.
     layer : (size, size) int8, the layer owning the pixel, −1 in gaps.
     grain_id : (size, size) uint32, an identifier of the owning grain within its layer.
+    generation : the generation parameters that made these grains (None for grains of unknown
+        origin, which a material refuses).
     average_albedo : (3,) float32, mean linear albedo of the tile.
     """
 
@@ -28,6 +30,7 @@ class SandTextures:
     glint: np.ndarray
     layer: np.ndarray
     grain_id: np.ndarray
+    generation: object = None
     average_albedo: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:

@@ -1,9 +1,9 @@
 """The sand material on the GPU: filterable grain textures, ripple maps and shading uniforms.
 
-``SandMaterial.update(preset)`` regenerates only what a change needs: new grains when a
-generation parameter changed, new glint moments when the glint selection (μ, σ) changed, and
-nothing but uniforms for every other shading parameter. ``bind(program)`` hands all of it to a
-program that includes ``shaders/sand_surface.glsl``.
+``SandMaterial.update(preset, grains=None)`` does only what a change needs: new grains when a
+generation parameter changed (or the grains given), new glint moments when a field of cost
+``moments`` changed, and nothing but uniforms for every other shading parameter.
+``bind(program)`` hands all of it to a program that includes ``shaders/sand_surface.glsl``.
 """
 
 from __future__ import annotations
@@ -98,7 +98,8 @@ class SandMaterial:
     def __init__(self, ctx: moderngl.Context, texture_size: int = DEFAULT_TEXTURE_SIZE) -> None:
         self.ctx = ctx
         self.texture_size = check_size(texture_size)
-        self.preset: Preset | None = None
+        self.preset: Preset | None = None  # whose shading is bound
+        self.grains_generation = None  # the generation parameters of the grains held
         self.average_albedo = np.zeros(3, dtype=np.float32)
         self.close_cutoff = CLOSE_CUTOFF
         self._owned = GLObjects()
@@ -145,10 +146,17 @@ class SandMaterial:
     def update(
         self,
         preset: Preset,
+        grains: SandTextures | None = None,
         between_bands: Callable[[], None] | None = None,
         cancelled: Callable[[], bool] | None = None,
     ) -> bool:
-        """Make the GPU textures match ``preset``, doing only the work its changes need.
+        """Shade with ``preset``, doing only the work its changes need.
+
+        The one way grains come in. With ``grains`` (made elsewhere, e.g. read back from
+        another context), those are uploaded and kept: the preset's shading is applied to them
+        even while their generation is not yet the preset's, so a view waiting for its next
+        tile never makes grains itself. Without, new grains are made here when the preset's
+        generation differs from the grains the material holds (``grains_generation``).
 
         With ``between_bands``, new grains are drawn in bands of ``GENERATION_BAND_ROWS`` rows
         and it is called after each: a thread making grains beside one that must keep drawing
@@ -157,18 +165,21 @@ class SandMaterial:
         material holds no preset until its next update, and False is returned.
         """
         try:
-            return self._update(preset, between_bands, cancelled)
+            return self._update(preset, grains, between_bands, cancelled)
         except BaseException:
             self.preset = None  # half-made: the next update makes everything again
+            self.grains_generation = None
             self._built_for = None
             raise
 
-    def _update(self, preset, between_bands, cancelled) -> bool:
-        generation = preset.generation
-        if self.preset is None or self.preset.generation != generation:
-            constants = NoiseConstants.from_generation(generation)
+    def _update(self, preset, grains, between_bands, cancelled) -> bool:
+        if grains is not None:
+            self._upload(grains)
+        elif self.grains_generation != preset.generation:
+            constants = NoiseConstants.from_generation(preset.generation)
             generator = gl_generator(self.ctx)
             self.preset = None  # until every band is drawn
+            self.grains_generation = None
             self._built_for = None
             size = self.texture_size
             rows = size if between_bands is None and cancelled is None else GENERATION_BAND_ROWS
@@ -177,23 +188,20 @@ class SandMaterial:
                     between_bands()
                 if cancelled is not None and cancelled():
                     return False
-        build_key = (generation, *(preset.get(spec.path) for spec in _MOMENT_FIELDS))
+            self.grains_generation = preset.generation
+        build_key = (self.grains_generation, *(preset.get(spec.path) for spec in _MOMENT_FIELDS))
         if self._built_for != build_key:
             self._build_textures(preset)
             self._built_for = build_key
         self.preset = preset
         return True
 
-    def set_grains(self, preset: Preset, textures: SandTextures) -> None:
-        """Use grains generated elsewhere (read back from another context) for ``preset``.
-
-        ``textures`` must be ``preset.generation`` at ``texture_size``. They are uploaded and the
-        glint moments rebuilt from them; ``update`` then keeps them for as long as the
-        generation parameters stay the same, so this context never generates grains itself.
-        """
+    def _upload(self, textures: SandTextures) -> None:
         n = self.texture_size
         if textures.size != n:
-            raise ValueError(f"set_grains: textures are {textures.size}², the material is {n}²")
+            raise ValueError(f"grains are {textures.size}², the material is {n}²")
+        if textures.generation is None:
+            raise ValueError("grains must say which generation made them (SandTextures.generation)")
         normal_height = np.empty((n, n, 4), dtype=np.float32)
         normal_height[..., :3] = textures.normal
         normal_height[..., 3] = textures.height
@@ -203,11 +211,11 @@ class SandMaterial:
         self._grains.normal_height.write(normal_height)
         self._grains.layer_grain.write(layer_grain)
         self._built_for = None
-        self.preset = preset  # the grains now hold its generation: update() keeps them
-        self.update(preset)
+        self.grains_generation = textures.generation
 
     def _build_textures(self, preset: Preset) -> None:
-        nc = NoiseConstants.from_generation(preset.generation)
+        # Coloured by the generation of the grains held, which may not yet be the preset's.
+        nc = NoiseConstants.from_generation(self.grains_generation)
         program = self._build
         self._grains.normal_height.use(location=0)
         self._grains.layer_grain.use(location=1)

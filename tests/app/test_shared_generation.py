@@ -3,6 +3,7 @@ view; a material built on uploaded grains is the material generated in place."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
@@ -106,6 +107,26 @@ def test_a_hidden_3d_view_does_no_work(window, qtbot):
     assert view.material.preset == window.model.preset
 
 
+def test_a_generation_edit_is_drawn_once_with_its_own_grains(window, qtbot):
+    panel = open_3d(window, qtbot)
+    view = panel.view
+    qtbot.waitUntil(lambda: view.at_rest, timeout=TIMEOUT_MS)
+    drawn_with = []
+
+    def record(_timings):
+        drawn_with.append(view.grains_generation == window.model.preset.generation)
+
+    view.rendered.connect(record)
+    try:
+        window.model.edit("generation.threshold", 0.45)
+        wait_generated(window, qtbot)
+        qtbot.waitUntil(lambda: view.at_rest, timeout=TIMEOUT_MS)
+    finally:
+        view.rendered.disconnect(record)
+    # A frame before the tile arrived would show the old grains as if they were the edit.
+    assert drawn_with and all(drawn_with), drawn_with
+
+
 def test_undo_shows_the_cached_tile_without_generating(window, qtbot):
     before = window.preview.textures
     window.model.edit("generation.roundness", 0.6)
@@ -125,15 +146,36 @@ def test_a_material_on_uploaded_grains_equals_one_generated_in_place(gl_clean):
     uploaded = SandMaterial(gl_clean, 128)
     try:
         in_place.update(preset)
-        uploaded.set_grains(preset, generate(preset, 128, ctx=gl_clean))
+        uploaded.update(preset, grains=generate(preset, 128, ctx=gl_clean))
         for name in ("albedo", "glint_moments", "spread_moments", "hole_moments"):
             assert getattr(in_place, name).read() == getattr(uploaded, name).read(), name
         np.testing.assert_array_equal(in_place.average_albedo, uploaded.average_albedo)
+        assert uploaded.grains_generation == preset.generation
         with pytest.raises(ValueError, match="256².*128²"):
-            uploaded.set_grains(preset, generate(preset, 256, ctx=gl_clean))
+            uploaded.update(preset, grains=generate(preset, 256, ctx=gl_clean))
+        anonymous = dataclasses.replace(generate(preset, 128, ctx=gl_clean), generation=None)
+        with pytest.raises(ValueError, match="which generation"):
+            uploaded.update(preset, grains=anonymous)
     finally:
         in_place.release()
         uploaded.release()
+
+
+def test_grains_keep_their_own_colours_under_a_newer_preset(gl_clean):
+    # A tile arriving after a further generation edit is shaded with the newest preset but
+    # coloured by the generation that made it: no grains drawn in another sand's colours.
+    old = Preset().replace(**{"generation.seed": 3})
+    newer = old.replace(**{"generation.base_color": "#e01a1a", "shading.glint_mu": 0.7})
+    late, direct = SandMaterial(gl_clean, 128), SandMaterial(gl_clean, 128)
+    try:
+        late.update(newer, grains=generate(old, 128, ctx=gl_clean))
+        direct.update(old.replace(**{"shading.glint_mu": 0.7}))
+        assert late.preset == newer and late.grains_generation == old.generation
+        assert late.albedo.read() == direct.albedo.read()
+        assert late.glint_moments.read() == direct.glint_moments.read()
+    finally:
+        late.release()
+        direct.release()
 
 
 def test_moving_frames_draw_at_reduced_resolution_then_refine(window, qtbot):
