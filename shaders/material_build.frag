@@ -4,7 +4,7 @@
 // quantity written here is linear in what the renderer averages, so the GPU's mipmaps (box
 // averages) stay exact footprint averages at every level:
 //   albedo:  linear RGB of the grain, and its glint value g in alpha (top layer, else 0)
-//   glint:   w, w·bx, w·by, w·bx·by   (w = glint selection weight of g; b = slope of the grain
+//   glint:   w, w·bx, w·by, w·bx·by   (w: the light a clear grain gets, else 0; b = slope of the grain
 //            normal, n ∝ (bx, by, 1))
 //   spread:  w·bx², w·by², bx, by
 //   hole:    w·exp(−|b|²/2s₀²), the slope density near zero at scale s₀ (sand_surface.glsl)
@@ -16,8 +16,8 @@ uniform usampler2D u_layer_grain;    // generator output: layer + 1 (0 in gaps),
 uniform vec3 u_base_color;           // linear
 uniform vec3 u_layer_colors[LAYER_COLOURS];  // linear, layers × 4 palette entries (#defined)
 uniform uvec3 u_colour_thresholds;   // 16-bit colour pick bounds (noise.colour_thresholds)
-uniform float u_glint_mu;
-uniform float u_glint_sigma;
+uniform float u_clear_grains;        // share of the grains that are clear
+uniform float u_layer_light[MAX_LAYERS];  // linear share of the light reaching each layer
 
 layout(location = 0) out vec4 out_albedo;
 layout(location = 1) out vec4 out_glint;
@@ -40,12 +40,10 @@ void main() {
         int colour = int(pick >= u_colour_thresholds.x) + int(pick >= u_colour_thresholds.y)
                    + int(pick >= u_colour_thresholds.z);
         albedo = u_layer_colors[layer * 4 + colour];
-        if (layer == 0) {
-            // The reference's per-grain selection: a Gaussian in the grain's glint value.
-            float g = float(word >> 24u) / 256.0;
-            float z = (g - u_glint_mu) / u_glint_sigma;
-            w = exp(-0.5 * z * z);
-        }
+        // A grain is clear when its glint value (uniform in [0, 1)) is below the share; a
+        // deeper layer's mirrors get less light, as its colours do.
+        float g = float(word >> 24u) / 256.0;
+        w = g < u_clear_grains ? u_layer_light[layer] : 0.0;
     }
     vec3 n = normal_height.xyz;
     vec2 b = n.xy / n.z;   // n.z ≥ the profile's minimum over |∇n|: never 0

@@ -1,5 +1,5 @@
-// The far range of the sand material: d'Eon's Lambertian-sphere BRDF of the average colour on the
-// rippled macro normal (included by sand_surface.glsl after its uniforms and helpers).
+// The sand's large-scale surface and diffuse BRDF: ripples on the macro normal and d'Eon's
+// Lambertian-sphere BRDF (included by sand_surface.glsl after its uniforms and helpers).
 
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
 const float MIN_FACING = 0.05;       // least n·v of a shading normal
@@ -52,17 +52,16 @@ vec3 rippled_normal(SurfacePoint s) {
     return to_world(n_t, s);
 }
 
-vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
+// The surface point on its ripples: the rippled normal, bent towards the eye where a ripple's
+// back would face away from it (a hard dark patch that no real ripple shows: its back would be
+// hidden by its crest), with the tangent frame turned to it.
+SurfacePoint rippled_point(SurfacePoint s, vec3 v) {
     vec3 n = rippled_normal(s);
-    // At grazing views a ripple's back can face away from the eye, where the BRDF is 0: a hard
-    // dark patch that no real ripple shows (its back would be hidden by its crest). Bend such
-    // normals just far enough towards the eye.
     float facing = dot(n, v);
     if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
-    float fe = exp(-u_absorption * u_sss);
-    vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
-    vec3 radiance = fe * kd / PI * L.sky_irradiance * (0.5 + 0.5 * n.y);
-    radiance += fe * lambert_sphere(kd, n, L.sun_direction, v) * L.sun_radiance * max(dot(n, L.sun_direction), 0.0);
-    radiance += fe * lambert_sphere(kd, n, L.moon_direction, v) * L.moon_radiance * max(dot(n, L.moon_direction), 0.0);
-    return radiance;
+    SurfacePoint r = s;
+    r.normal = n;
+    r.tangent = normalize(s.tangent - dot(s.tangent, n) * n);
+    r.bitangent = cross(n, r.tangent) * sign(dot(cross(s.normal, s.tangent), s.bitangent));
+    return r;
 }

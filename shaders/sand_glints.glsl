@@ -3,38 +3,40 @@
 // the probe's filters, sand_probe.glsl, build on these functions).
 //
 // The expected glint comes from moments (LEAN mapping, Olano & Baker 2010): the material's
-// mipmaps hold the w-weighted mean and covariance of grain-normal slopes, w being each grain's
-// glint selection weight, so the expected glint of a whole footprint is one closed-form Gaussian
-// integral per light instead of many taps. From it each pixel draws its sparkle: the grain
-// facets that mirror the sun in its footprint (glint_facets.glsl).
+// mipmaps hold the w-weighted mean and covariance of grain-normal slopes, w being 1 on clear
+// grains and 0 elsewhere, so the density of mirroring facets over a whole footprint is one
+// closed-form Gaussian integral per light instead of many taps. From it each pixel draws its
+// sparkle: the grain facets that mirror the sun in its footprint (glint_facets.glsl).
 
-// Glints are drawn sparkles (glint_facets.glsl), except in MODE_REFERENCE_LOOK: the reference's
-// look, its gain and distance boost on the expected glint.
-const float REFERENCE_GLINT_GAIN = 5000.0;  // the reference's glint radiance scale
-const float REFERENCE_BOOST = 5.0;   // and its distance boost e^(5m), m the mip level / the top
-// Our glint brightness: the reference's at its boost level m = 0.4 (where it shows sand about
-// 0.4 m away at 480×270), the same at every distance: the drawn sparkle loses no energy.
-const float GLINT_GAIN = REFERENCE_GLINT_GAIN * 7.38905609893;  // e^(5·0.4)
-const float SILICA_F0 = 0.03478;     // ((1.458 − 1) / (1.458 + 1))², Schlick's F0 of quartz
+// The facet model. Every grain of the top layer is clear (it mirrors) or not, by the preset's
+// share of clear grains; a clear grain's surface is facets whose slopes spread about the
+// grain's profile slope b by a Beckmann distribution of roughness α (the preset's facet
+// roughness): slopes N(b, α²/2·I). The footprint's density of mirroring slopes at the half
+// vector's slope b_h, D = E[w·N(b_h; b, α²/2)] (w = 1 on clear grains), then gives everything:
+//   the specular radiance (Cook–Torrance)  L = E·F(v·h)·G·D / (4·cos⁴θ_h·cos θ_v),
+//   and the chance that one facet mirrors the sun's disc, D times the area in slope space of
+//   the half vectors the disc spans: at most 1 by construction, never clamped.
+
+// The reference's look (MODE_REFERENCE_LOOK): its gain and distance boost e^(5m) on its
+// Phong lobe of the facet roughness, m the mip level over the top one.
+const float REFERENCE_GLINT_GAIN = 5000.0;
+const float REFERENCE_BOOST = 5.0;
+// Its N×N kernel, 7×7 taps 0.305 pixels apart: the footprint it filters, in pixels.
+const float REFERENCE_FOOTPRINT = 7.0 * 0.305;
+// Facets smoother than this would need a finer sun than the real one to resolve.
+const float MIN_FACET_ROUGHNESS = 0.01;
 // HOLE_SCALE2, s₀², the width² of the slope hole the moments record, is #defined by material.py.
 
-// Width² of the glint lobe in slope space: a Phong lobe of exponent Gs about the mirror direction
-// is a Gaussian of variance 1/(4·Gs) in the angle of the normal to the half vector; slopes
-// stretch angles by 1 + |b_h|² around slope b_h.
-float lobe_variance(vec2 b_half) {
-    float stretch = 1.0 + dot(b_half, b_half);
-    return stretch * stretch / (4.0 * max(u_glint_shininess, 0.1));
+// Per-axis variance of facet slopes about their grain's slope.
+float facet_variance() {
+    float a = max(u_facet_roughness, MIN_FACET_ROUGHNESS);
+    return 0.5 * a * a;
 }
 
-// The glint lobe of one normal slope b: 1 at the mirror configuration.
-float glint_lobe(vec2 b, vec2 b_half, float variance) {
+// The density at b_half of one grain point's facet slopes (about slope b).
+float facet_density(vec2 b, vec2 b_half, float variance) {
     vec2 d = b - b_half;
-    return exp(-0.5 * dot(d, d) / variance);
-}
-
-float glint_selection(float g) {
-    float z = (g - u_glint_mu) / u_glint_sigma;
-    return exp(-0.5 * z * z);
+    return exp(-0.5 * dot(d, d) / variance) / (2.0 * PI * variance);
 }
 
 // The w-weighted slope distribution of a footprint as LEAN mapping sees it: mass, mean and
@@ -87,6 +89,11 @@ float expected_glint(SlopeMoments s, vec2 b_half, float variance) {
     return s.w * max((1.0 + k) * gaussian - k * hole, 0.0);
 }
 
+// The footprint's density of mirroring facet slopes at b_half (the D above).
+float mirror_density(SlopeMoments s, vec2 b_half, float variance) {
+    return expected_glint(s, b_half, variance) / (2.0 * PI * variance);
+}
+
 // Half vector slope of a light and view in tangent space; false where no grain facing up can
 // mirror one into the other (the half vector below the surface).
 bool half_slope(vec3 l_t, vec3 v_t, out vec2 b_half, out float v_dot_h) {
@@ -100,11 +107,23 @@ bool half_slope(vec3 l_t, vec3 v_t, out vec2 b_half, out float v_dot_h) {
     return true;
 }
 
-// Schlick's Fresnel for quartz, normalised to 1 at normal incidence; the specular roughness damps
-// the grazing rise (rough grains do not mirror at grazing angles).
-float glint_fresnel(float v_dot_h) {
-    float schlick = SILICA_F0 + (1.0 - SILICA_F0) * pow(1.0 - v_dot_h, 5.0);
-    return mix(schlick / SILICA_F0, 1.0, u_fresnel_roughness);
+// Fresnel reflectance of a dielectric of index eta (unpolarised, exact), at cos of incidence c.
+float fresnel_dielectric(float c, float eta) {
+    float g2 = eta * eta - 1.0 + c * c;
+    if (g2 < 0.0) return 1.0;
+    float g = sqrt(g2);
+    float a = (g - c) / (g + c);
+    float b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return clamp(0.5 * a * a * (1.0 + b * b), 0.0, 1.0);
+}
+
+// Smith's masking of a Beckmann surface of roughness alpha seen at cos_theta (Walter et al.'s
+// rational fit of Λ).
+float smith_lambda(float cos_theta, float alpha) {
+    float c = clamp(cos_theta, 1e-4, 1.0);
+    float a = c / (alpha * sqrt(max(1.0 - c * c, 1e-12)));
+    if (a >= 1.6) return 0.0;
+    return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a);
 }
 
 struct Footprint {
@@ -118,23 +137,46 @@ struct Footprint {
     bool lit0, lit1;
 };
 
-// One light's half vector, as the glint lobe needs it.
+// One light's half vector, with what the facet model needs of it.
 struct HalfVector {
     bool valid;      // the light and the eye are above the surface and some grain can mirror
     vec2 slope;      // of the half vector, in tangent space
-    float variance;  // of the lobe about it, in slope space
-    float fresnel;   // normalised to 1 at normal incidence
+    float variance;  // of the facet slopes about a grain's slope
     float cos_light; // of the light to the macro normal
+    float cos_view;  // of the eye to the macro normal
+    float fresnel;   // F(v·h) of the grains' index of refraction
+    float cone;      // area in slope space of the half vectors the light's disc spans
+    float scale;     // F(v·h) / (4·cos⁴θ_h·cos θ_v): radiance per density per irradiance, G apart
 };
 
 HalfVector half_vector(vec3 l_t, vec3 v_t) {
     HalfVector h;
     float v_dot_h = 0.0;
     h.valid = l_t.z > 0.0 && v_t.z > 0.0 && half_slope(l_t, v_t, h.slope, v_dot_h);
-    h.variance = lobe_variance(h.valid ? h.slope : vec2(0.0));
-    h.fresnel = glint_fresnel(v_dot_h);
+    h.variance = facet_variance();
     h.cos_light = max(l_t.z, 0.0);
+    h.cos_view = max(v_t.z, 1e-4);
+    // cos θ_h from the slope: 1/√(1 + |b|²). A disc of solid angle Ω spans Ω/(4·v·h) of half
+    // vectors, and a solid angle dω about slope b is dω/cos³θ_h of slope space.
+    float cos2_half = 1.0 / (1.0 + dot(h.slope, h.slope));
+    float cos_half = sqrt(cos2_half);
+    float vh = max(v_dot_h, 1e-4);
+    h.cone = h.valid ? LIGHT_SOLID_ANGLE / (4.0 * vh * cos2_half * cos_half) : 0.0;
+    h.fresnel = fresnel_dielectric(vh, u_grain_ior);
+    h.scale = h.valid ? h.fresnel / (4.0 * cos2_half * cos2_half * h.cos_view) : 0.0;
     return h;
+}
+
+// Smith's masking–shadowing of the footprint's facets: Beckmann of the facets' roughness
+// widened by the grains' own spread of slopes.
+float masking(HalfVector h) {
+    float alpha = sqrt(2.0 * h.variance + 2.0 * u_grain_slope_variance);
+    return 1.0 / (1.0 + smith_lambda(h.cos_view, alpha) + smith_lambda(h.cos_light, alpha));
+}
+
+// Specular radiance per unit irradiance of a light for a density of mirroring slopes.
+float specular_radiance(float density, HalfVector h) {
+    return h.valid ? density * h.scale * masking(h) : 0.0;
 }
 
 // The half vectors of both lights at a point `offset` tiles along the surface from the pixel's
@@ -150,36 +192,41 @@ void half_vectors_at(Footprint f, vec2 offset, out HalfVector h0, out HalfVector
     h1.valid = h1.valid && f.lit1;
 }
 
-vec2 lobes(HalfVector h0, HalfVector h1, vec2 b) {
-    return vec2(h0.valid ? glint_lobe(b, h0.slope, h0.variance) : 0.0,
-                h1.valid ? glint_lobe(b, h1.slope, h1.variance) : 0.0);
+// The facet-slope densities at both half vectors of one grain point of slope b.
+vec2 densities(HalfVector h0, HalfVector h1, vec2 b) {
+    return vec2(h0.valid ? facet_density(b, h0.slope, h0.variance) : 0.0,
+                h1.valid ? facet_density(b, h1.slope, h1.variance) : 0.0);
 }
 
-// The footprint of the reference's N×N kernel: the preset's sample count × spread pixels.
-float reference_footprint() {
-    return max(1.0, float(u_sample_count) * u_sample_spread);
-}
-
-// The expected glint E[w·lobe] of two lights over the footprint widened by `widen` pixels, from
-// one trilinear fetch per moment texture.
+// The densities of mirroring slopes D of two lights over the footprint widened by `widen`
+// pixels, from one trilinear fetch per moment texture.
 vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1, float widen) {
     vec2 gx = f.dx * widen, gy = f.dy * widen;
     SlopeMoments m = slope_moments(textureGrad(u_glint_moments, f.tc, gx, gy),
                                    textureGrad(u_spread_moments, f.tc, gx, gy),
                                    textureGrad(u_hole_moments, f.tc, gx, gy).x);
-    return vec2(h0.valid ? expected_glint(m, h0.slope, h0.variance) : 0.0,
-                h1.valid ? expected_glint(m, h1.slope, h1.variance) : 0.0);
+    return vec2(h0.valid ? mirror_density(m, h0.slope, h0.variance) : 0.0,
+                h1.valid ? mirror_density(m, h1.slope, h1.variance) : 0.0);
 }
 
-// The chance that one facet mirrors a light, from an expected glint E[w·lobe]: the expected
-// radiance over a mirroring facet's, R = F·E/Ω (glint_facets.glsl); E and F cancel.
-float mirror_chance(float expected, HalfVector h) {
-    return GLINT_GAIN * expected * h.cos_light * LIGHT_SOLID_ANGLE / SILICA_F0;
+// The whole tile's densities: its top mip level, the distribution far away.
+vec2 tile_factors(HalfVector h0, HalfVector h1) {
+    vec2 centre = vec2(0.5);
+    SlopeMoments m = slope_moments(textureLod(u_glint_moments, centre, u_max_lod),
+                                   textureLod(u_spread_moments, centre, u_max_lod),
+                                   textureLod(u_hole_moments, centre, u_max_lod).x);
+    return vec2(h0.valid ? mirror_density(m, h0.slope, h0.variance) : 0.0,
+                h1.valid ? mirror_density(m, h1.slope, h1.variance) : 0.0);
+}
+
+// The chance that one facet mirrors a light's disc, from a density of mirroring slopes.
+float mirror_chance(float density, HalfVector h) {
+    return density * h.cone;
 }
 
 // The glints with each light's sparkle drawn (glint_facets.glsl): the mirroring facets of
 // the patches under the footprint, each patch's chance from its own mip texel's moments, so
-// that the draw belongs to the surface alone; returned in the units of E[w·lobe]. Without
+// that the draw belongs to the surface alone; returned as densities, as expected_factors. Without
 // `draw`, the expectation alone: the pixel's footprint's expected glint.
 vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
     if (!draw) return expected_factors(f, h0, h1, 1.0);
@@ -202,11 +249,11 @@ vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
             vec2 offset = ((vec2(cell) + 0.5) * p.size - p.texel) / u_texture_size;
             half_vectors_at(f, offset, p0, p1);
             if (p0.valid) {
-                float chance = mirror_chance(expected_glint(m, p0.slope, p0.variance), p0);
+                float chance = mirror_chance(mirror_density(m, p0.slope, p0.variance), p0);
                 count.x += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), p0.slope, 0u);
             }
             if (p1.valid) {
-                float chance = mirror_chance(expected_glint(m, p1.slope, p1.variance), p1);
+                float chance = mirror_chance(mirror_density(m, p1.slope, p1.variance), p1);
                 count.y += facets_in_pixel(p, cell, p.facets * min(chance, 1.0), p1.slope, 1u);
             }
         }

@@ -1,9 +1,12 @@
 // The sand material: shade_sand(point, lighting, mode) for any surface that includes this file
-// (after lighting.glsl). Close up: grain albedo and normals, glints, subsurface-flavoured diffuse,
-// Fresnel and forward transmission; far away: d'Eon's Lambertian-sphere BRDF of the average
-// colour on the rippled macro normal; between them the preset's sigmoid of distance. Uniforms are
-// set by sand_editor/render/material.py (SandMaterial.bind). The glints' maths and sparkle are in
-// sand_glints.glsl, the far range in sand_far.glsl.
+// (after lighting.glsl). One model at every distance: d'Eon's Lambertian-sphere BRDF with the
+// subsurface terms for the diffuse light, and the Cook–Torrance light of the clear grains'
+// facets for the specular, on the rippled macro normal. Close up the footprint's own albedo,
+// grain normals and facets shade it, the mirroring facets drawn as sparkles; far away the
+// tile's average and its whole distribution of facets, which is what the close range tends
+// to; between them the preset's sigmoid of distance only decides which work is done. Uniforms
+// are set by sand_editor/render/material.py (SandMaterial.bind). The facet model and sparkle
+// are in sand_glints.glsl and glint_facets.glsl, ripples and d'Eon's BRDF in sand_far.glsl.
 
 #include "common.glsl"
 #include "glint_facets.glsl"
@@ -27,15 +30,12 @@ uniform vec3 u_average_albedo;       // linear: the far-field colour
 uniform float u_texture_size;        // texels per tile edge of the grain textures
 uniform float u_max_lod;
 uniform float u_uv_scale;            // tiles per metre
-uniform float u_glint_shininess;
-uniform float u_glint_mu;
-uniform float u_glint_sigma;
-uniform int u_sample_count;
-uniform float u_sample_spread;
+uniform float u_facet_roughness;     // Beckmann α of facets about their grain's normal
+uniform float u_grain_ior;           // the grains' index of refraction
+uniform float u_grain_slope_variance;  // per-axis variance of clear grains' slopes (the tile)
 uniform float u_sss;
 uniform float u_scattering;
 uniform float u_absorption;
-uniform float u_fresnel_roughness;
 uniform float u_transmission;
 uniform float u_transmission_roughness;
 uniform float u_ripple_strength;
@@ -67,14 +67,15 @@ vec3 to_world(vec3 t, SurfacePoint s) {
 
 #include "bench/sand_probe.glsl" if SAND_PROBE
 
-// The glint E[w·lobe] of two lights over the pixel, by the filter in use (production: ours).
+// The densities of mirroring slopes D of two lights over the pixel, by the filter in use
+// (production: ours, drawn; the reference's look: the expectation over its kernel).
 vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
     if (!h0.valid && !h1.valid) return vec2(0.0);
 #if defined SAND_PROBE
     return probe_glint_factors(f, h0, h1, sparkle);
 #else
     return sparkle ? sparkling_factors(f, h0, h1, true)
-                   : expected_factors(f, h0, h1, reference_footprint());
+                   : expected_factors(f, h0, h1, REFERENCE_FOOTPRINT);
 #endif
 }
 
@@ -87,12 +88,30 @@ void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
     slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
 }
 
-// Subsurface-flavoured diffuse of the reference: a share fs of the light wraps around the grain
-// (scattering), and absorption along the subsurface path dims everything by fe.
-vec3 grain_diffuse(vec3 albedo, float n_dot_l, vec3 irradiance, vec3 sky) {
+#include "sand_far.glsl"
+
+// The diffuse light of the sand for one light on a shading normal n with albedo kd, the same
+// close up (the footprint's albedo and mean grain normal) as far away (the tile's, on the
+// macro normal): d'Eon's BRDF of a half space of Lambertian spheres, with the reference's
+// subsurface terms — a share fs of the light wraps around the grains (scattering) and
+// absorption along the subsurface path dims everything by fe.
+// The BRDF is taken per unit albedo at the tile's average albedo, so that it is linear in the
+// albedo: the mean over a footprint of many grains is then the BRDF of their mean, and the
+// close range's average is the far range's exactly, whatever the grains' colours.
+vec3 sand_diffuse(vec3 kd, vec3 n, vec3 l, vec3 v, vec3 irradiance) {
     float fs = clamp(u_scattering * u_sss, 0.0, 1.0);
     float fe = exp(-u_absorption * u_sss);
-    return fe * albedo / PI * (irradiance * (fs + (1.0 - fs) * max(n_dot_l, 0.0)) + sky);
+    vec3 mean_kd = clamp(u_average_albedo, 1e-4, 1.0);
+    vec3 per_albedo = lambert_sphere(mean_kd, n, l, v) / mean_kd;
+    vec3 direct = kd * ((1.0 - fs) * per_albedo * max(dot(n, l), 0.0) + fs / PI);
+    return fe * direct * irradiance;
+}
+
+// Sky light on the sand: the cosine-weighted sky irradiance of an upward surface, less as the
+// normal turns from the sky.
+vec3 sand_sky(vec3 kd, vec3 n, vec3 sky) {
+    float fe = exp(-u_absorption * u_sss);
+    return fe * kd / PI * sky * (0.5 + 0.5 * n.y);
 }
 
 // Light passing through thin grain edges towards a viewer who looks into the light.
@@ -102,56 +121,89 @@ vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
     return u_transmission * albedo * irradiance * forward / PI;
 }
 
-struct CloseTerms {
+// Everything but the glints' specular light, for a shading normal n and albedo kd.
+vec3 sand_diffuse_light(vec3 kd, vec3 n, vec3 v, Lighting L) {
+    vec3 radiance = sand_sky(kd, n, L.sky_irradiance);
+    radiance += sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
+    radiance += sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance);
+    radiance += grain_transmission(kd, L.sun_direction, v, L.sun_radiance);
+    radiance += grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
+    return radiance;
+}
+
+struct Shaded {
     vec3 radiance;
-    vec3 glint;
-    vec3 micro_normal;
+    vec3 glint;         // the specular part of radiance
+    vec3 micro_normal;  // the diffuse shading normal
     float lod;
 };
 
-// reference_look: the reference's glint instead (its gain and distance boost, no sparkle).
-CloseTerms shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
+// The specular light of both lights for densities D of mirroring slopes.
+vec3 sand_specular(vec2 densities, HalfVector h0, HalfVector h1, Lighting L) {
+    return L.sun_radiance * specular_radiance(densities.x, h0)
+         + L.moon_radiance * specular_radiance(densities.y, h1);
+}
+
+void lights_in_tangent(SurfacePoint s, Lighting L, inout Footprint f) {
+    f.to_eye = to_tangent(L.eye - s.position, s);
+    f.light0 = to_tangent(L.sun_direction, s);
+    f.light1 = to_tangent(L.moon_direction, s);
+    // A light that is off (below the horizon) draws no sparkle: it would only cost time.
+    f.lit0 = dot(L.sun_radiance, L.sun_radiance) > 0.0;
+    f.lit1 = dot(L.moon_radiance, L.moon_radiance) > 0.0;
+}
+
+// Close up: the footprint's albedo, mean grain normal and density of mirroring facets, drawn
+// as sparkles. reference_look: the reference's glint instead (its gain and distance boost on
+// the expectation over its kernel, no sparkle).
+Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     Footprint f;
     f.tc = s.uv * u_uv_scale;
     f.dx = dFdx(f.tc);
     f.dy = dFdy(f.tc);
-    CloseTerms c;
+    Shaded c;
     vec3 albedo;
     vec2 slope;
     footprint_surface(f, albedo, slope);
     c.micro_normal = to_world(normalize(vec3(slope, 1.0)), s);
     vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
     c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
-
-    c.radiance = vec3(0.0);
-    c.glint = vec3(0.0);
-    vec3 lights[2] = vec3[2](L.sun_direction, L.moon_direction);
-    vec3 irradiances[2] = vec3[2](L.sun_radiance, L.moon_radiance);
-    vec3 l_t[2] = vec3[2](to_tangent(lights[0], s), to_tangent(lights[1], s));
-    f.to_eye = to_tangent(L.eye - s.position, s);
-    f.light0 = l_t[0];
-    f.light1 = l_t[1];
-    // A light that is off (below the horizon) draws no sparkle: it would only cost time.
-    f.lit0 = dot(irradiances[0], irradiances[0]) > 0.0;
-    f.lit1 = dot(irradiances[1], irradiances[1]) > 0.0;
+    lights_in_tangent(s, L, f);
     HalfVector h[2];
     half_vectors_at(f, vec2(0.0), h[0], h[1]);
-    vec2 glints = glint_factors(f, h[0], h[1], !reference_look);
-    float gain = reference_look
-        ? REFERENCE_GLINT_GAIN * exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0))
-        : GLINT_GAIN;
-    for (int i = 0; i < 2; ++i) {
-        vec3 e = irradiances[i];
-        c.glint += e * (gain * glints[i] * h[i].fresnel * max(l_t[i].z, 0.0));
-        c.radiance += grain_diffuse(albedo, dot(c.micro_normal, lights[i]), e, vec3(0.0));
-        c.radiance += grain_transmission(albedo, lights[i], v, e);
+    vec2 densities = glint_factors(f, h[0], h[1], !reference_look);
+    if (reference_look) {
+        // E[w·lobe] = D·2π·var; the lobe 1 at the mirror direction, Fresnel normalised to 1
+        // at normal incidence, the light's cosine: the reference's formula.
+        float gain = REFERENCE_GLINT_GAIN * exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0));
+        float f0 = fresnel_dielectric(1.0, u_grain_ior);
+        c.glint = vec3(0.0);
+        vec3 e[2] = vec3[2](L.sun_radiance, L.moon_radiance);
+        for (int i = 0; i < 2; ++i) {
+            if (!h[i].valid) continue;
+            float lobe = densities[i] * 2.0 * PI * h[i].variance;
+            c.glint += e[i] * gain * lobe * h[i].cos_light * h[i].fresnel / f0;
+        }
+    } else {
+        c.glint = sand_specular(densities, h[0], h[1], L);
     }
-    c.radiance += grain_diffuse(albedo, 0.0, vec3(0.0), L.sky_irradiance);
-    c.radiance += c.glint;
+    c.radiance = sand_diffuse_light(albedo, c.micro_normal, v, L) + c.glint;
     return c;
 }
 
-#include "sand_far.glsl"
+// Far away: the tile's average albedo and its whole distribution of mirroring facets on the
+// macro normal, no sparkle: the limit of shade_close as the footprint covers the tile.
+vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
+    Footprint f = Footprint(s.uv * u_uv_scale, vec2(0.0), vec2(0.0), vec3(0.0), vec3(0.0),
+                            vec3(0.0), false, false);
+    lights_in_tangent(s, L, f);
+    HalfVector h0, h1;
+    half_vectors_at(f, vec2(0.0), h0, h1);
+    vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
+    return sand_diffuse_light(kd, s.normal, v, L) + sand_specular(tile_factors(h0, h1), h0, h1, L);
+}
+
+
 
 vec3 shade_lambert(SurfacePoint s, Lighting L) {
     vec3 kd = u_average_albedo / PI;
@@ -182,22 +234,24 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
 
     if (mode == MODE_BLEND) return vec3(blend);
     if (mode == MODE_LAMBERT) return shade_lambert(s, L);
-    if (mode == MODE_FAR) return shade_far(s, L, v);
+    // The grains lie on the ripples: close and far shade the same rippled surface.
+    SurfacePoint r = rippled_point(s, v);
+    if (mode == MODE_FAR) return shade_far(r, L, v);
 
     // Past the cutoff the close term's share is negligible: none of its work is done.
 #if defined SAND_FAR_ONLY
-    return shade_far(s, L, v);
+    return shade_far(r, L, v);
 #endif
-    if ((mode == MODE_FULL || mode == MODE_REFERENCE_LOOK) && blend > u_close_cutoff) return shade_far(s, L, v);
-    CloseTerms close = shade_close(s, L, v, mode == MODE_REFERENCE_LOOK);
+    bool whole = mode == MODE_FULL || mode == MODE_REFERENCE_LOOK;
+    if (whole && blend > u_close_cutoff) return shade_far(r, L, v);
+    Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK);
 
     if (mode == MODE_CLOSE) return close.radiance;
     if (mode == MODE_GLINTS) return close.glint;
     if (mode == MODE_NORMALS) return close.micro_normal * 0.5 + 0.5;
     if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
-    vec3 far = blend > 1e-4 ? shade_far(s, L, v) : vec3(0.0);
-    // Glints are specular light that the far BRDF (diffuse spheres) does not hold: they are
-    // added to the blend rather than blended away, and fade out before the close range ends.
-    float glint_fade = 1.0 - smoothstep(0.5 * u_close_limit, u_close_limit, distance_m);
-    return mix(close.radiance - close.glint, far, blend) + close.glint * glint_fade;
+    // Both ranges hold the same light on average (the far one is the close one's limit), so
+    // the blend only decides which work is done.
+    vec3 far = blend > 1e-4 ? shade_far(r, L, v) : vec3(0.0);
+    return mix(close.radiance, far, blend);
 }

@@ -40,8 +40,8 @@ def _edits(window, kind: str, count: int):
     for i in range(count):
         if kind == "shading":
             # A uniform of the material: no new grains, no texture rebuild.
-            base = preset.shading.glint_shininess
-            yield "shading.glint_shininess", base + (1.0 if i % 2 == 0 else 0.0)
+            base = preset.shading.facet_roughness
+            yield "shading.facet_roughness", base + (0.01 if i % 2 == 0 else 0.0)
         else:
             yield "generation.seed", preset.generation.seed + i + 1
 

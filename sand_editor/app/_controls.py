@@ -24,7 +24,7 @@ from PySide6.QtWidgets import (
 
 from sand_editor.app._bindings import connect_model_to_widgets, connect_widget_to_model
 from sand_editor.app._model import PresetModel
-from sand_editor.app._widgets import SLIDER_STEPS, ColorSwatch, FloatScale, OddSpinBox
+from sand_editor.app._widgets import SLIDER_STEPS, ColorSwatch, FloatScale
 from sand_editor.preset import FIELDS, FieldSpec
 
 SECTION_TITLES = {"": "Preset", "generation": "Generation", "shading": "Shading"}
@@ -107,18 +107,16 @@ class ControlsPanel(QWidget):
             spin: QAbstractSpinBox = QDoubleSpinBox(objectName=_name(spec, "spin"))
             spin.setDecimals(0)
         else:
-            spin = OddSpinBox() if spec.odd else QSpinBox()
-            spin.setObjectName(_name(spec, "spin"))
+            spin = QSpinBox(objectName=_name(spec, "spin"))
         spin.setRange(minimum, maximum)
         spin.setKeyboardTracking(False)
         if spec.unit:
             spin.setSuffix(f" {spec.unit}")
         widgets: list[QWidget] = [spin]
-        step = 2 if spec.odd else 1
         slider = None
         if maximum - minimum <= INT_SLIDER_RANGE:
             slider = QSlider(Qt.Orientation.Horizontal, objectName=_name(spec, "slider"))
-            slider.setRange(0, (maximum - minimum) // step)
+            slider.setRange(0, maximum - minimum)
             slider.setPageStep(1)
             spin.setFixedWidth(SPIN_WIDTH)
             widgets.insert(0, slider)
@@ -126,7 +124,7 @@ class ControlsPanel(QWidget):
         def show(value: int) -> None:
             spin.setValue(value)
             if slider is not None:
-                slider.setValue((value - minimum) // step)
+                slider.setValue(value - minimum)
 
         model, path = self._model, spec.path
         sync = connect_model_to_widgets(model, path, widgets, show)
@@ -138,7 +136,7 @@ class ControlsPanel(QWidget):
                 slider.valueChanged,
                 model,
                 path,
-                lambda: minimum + step * slider.value(),
+                lambda: minimum + slider.value(),
                 gesture=slider.isSliderDown,
                 on_refused=sync,
             )

@@ -1,13 +1,13 @@
-"""Small widgets the parameter panel needs that Qt lacks: a colour swatch, an odd-only spin box,
-and a slider scale for float ranges."""
+"""Small widgets the parameter panel needs that Qt lacks: a colour swatch and a slider scale
+for float ranges."""
 
 from __future__ import annotations
 
 import math
 
 from PySide6.QtCore import Signal
-from PySide6.QtGui import QColor, QValidator
-from PySide6.QtWidgets import QColorDialog, QPushButton, QSpinBox, QWidget
+from PySide6.QtGui import QColor
+from PySide6.QtWidgets import QColorDialog, QPushButton, QWidget
 
 from sand_editor.preset import Color, FieldSpec
 
@@ -45,28 +45,6 @@ class ColorSwatch(QPushButton):
             if color != self._color:
                 self.set_color(color)
                 self.picked.emit(color)
-
-
-class OddSpinBox(QSpinBox):
-    """A spin box that only accepts odd integers (steps by 2, rounds typed even numbers up)."""
-
-    def __init__(self, parent: QWidget | None = None):
-        super().__init__(parent)
-        self.setSingleStep(2)
-
-    def validate(self, text: str, position: int):
-        state, text, position = super().validate(text, position)
-        if state == QValidator.State.Acceptable and self.valueFromText(text) % 2 == 0:
-            state = QValidator.State.Intermediate
-        return state, text, position
-
-    def fixup(self, text: str) -> str:
-        try:
-            number = self.valueFromText(text)
-        except ValueError:
-            return text
-        odd = number + 1 if number % 2 == 0 else number
-        return self.textFromValue(odd if odd <= self.maximum() else odd - 2)
 
 
 class FloatScale:

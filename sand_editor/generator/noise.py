@@ -90,6 +90,7 @@ class NoiseConstants:
     jitter: float
     base_color: np.ndarray  # (3,) linear RGB
     layer_colors: np.ndarray  # (MAX_LAYERS, PALETTE_SIZE, 3) linear RGB, darkened per layer
+    layer_light: np.ndarray  # (MAX_LAYERS,) linear share of the light that reaches each layer
     cumulative_weights: np.ndarray  # (PALETTE_SIZE,) in (0, 1], last exactly 1
 
     @property
@@ -127,6 +128,7 @@ class NoiseConstants:
             jitter=float(gen.jitter),
             base_color=srgb_to_linear(np.array(gen.base_color.srgb)),
             layer_colors=layer_colors,
+            layer_light=srgb_to_linear(darkening),
             cumulative_weights=cumulative,
         )
 

@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
-from sand_editor.preset._checks import describe, type_name
+from sand_editor.preset._checks import check_number, describe, type_name
 from sand_editor.preset._errors import PresetError
 from sand_editor.preset._fields import section_fields, unknown_field
 from sand_editor.untrusted import deeper_than
 
 FORMAT = "sand-editor-preset"
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 SECTIONS = ("generation", "shading")
 
 # Schema 2 as it was released. A migration must keep describing the schema it produces even
@@ -64,8 +65,79 @@ def _v1_to_v2(document: dict[str, Any]) -> dict[str, Any]:
     return migrated
 
 
+# Schema 2's glint fields, their defaults and ranges as released; schema 3 replaces them.
+_V2_GLINT = {
+    "glint_shininess": (10.4, 0.1, 1000.0),
+    "glint_sigma": (0.277, 0.001, 10.0),
+    "glint_mu": (2.0, -10.0, 10.0),
+}
+# Schema 2's fields that only the reference's multisampling and Fresnel damping used.
+_V2_DROPPED = ("sample_count", "sample_spread", "fresnel_roughness")
+
+
+def facet_roughness_of(shininess: float) -> float:
+    """The Beckmann roughness of a Phong exponent: the lobe exp(−θ²·Gs) about the mirror
+    direction is a Gaussian of variance 1/(2·Gs) in the normal's angle, α²/2 per axis."""
+    return 1.0 / math.sqrt(2.0 * shininess)
+
+
+# The reference's glint gain, 5000·e² (its boost at a tenth of the way from the finest mip
+# level, where its look was tuned), and the reflectance at normal incidence of quartz.
+_REFERENCE_GAIN = 5000.0 * math.e**2
+_QUARTZ_F0 = ((1.458 - 1.0) / (1.458 + 1.0)) ** 2
+
+
+def clear_share_of(mu: float, sigma: float, shininess: float) -> float:
+    """The share of clear grains that carries the reference's glint energy, as far as the
+    facet model allows (at most every grain).
+
+    The reference's mean glint, at normal incidence, is gain × E[w] × 2π·var times the slope
+    density there, with w the Gaussian selection over glint values g uniform in [0, 1) and
+    var = 1/(4·Gs) its Phong lobe's variance in slope; the facet model's is F₀·share/4 times
+    the same density. Their ratio is the share.
+    """
+    scale = sigma * math.sqrt(2.0)
+    span = math.erf((1.0 - mu) / scale) - math.erf(-mu / scale)
+    mean_w = sigma * math.sqrt(math.pi / 2.0) * span
+    share = _REFERENCE_GAIN * mean_w * 2.0 * math.pi / (4.0 * shininess) * 4.0 / _QUARTZ_F0
+    return min(max(share, 0.0), 1.0)
+
+
+def _significant(value: float, digits: int = 3) -> float:
+    return float(f"{value:.{digits}g}")
+
+
+def _v2_to_v3(document: dict[str, Any]) -> dict[str, Any]:
+    """Schema 3 describes glints by the grains' facets: facet roughness and the share of clear
+    grains replace the reference's shininess and selection Gaussian (μ, σ); its sample count,
+    sample spread and Fresnel damping are gone. The look of schema 2 files is kept."""
+    migrated = dict(document)
+    migrated["schema_version"] = 3
+    shading = document.get("shading")
+    if not isinstance(shading, dict):
+        return migrated  # validation reports it
+    old = {}
+    for name, (default, minimum, maximum) in _V2_GLINT.items():
+        value = shading.get(name, default)
+        old[name] = check_number(value, f"shading.{name} (schema 2)", minimum, maximum)
+    new = {k: v for k, v in shading.items() if k not in _V2_GLINT and k not in _V2_DROPPED}
+    new.setdefault(
+        "facet_roughness",
+        _significant(min(max(facet_roughness_of(old["glint_shininess"]), 0.01), 1.0)),
+    )
+    new.setdefault(
+        "clear_grains",
+        _significant(clear_share_of(old["glint_mu"], old["glint_sigma"], old["glint_shininess"])),
+    )
+    migrated["shading"] = new
+    return migrated
+
+
 # Each function turns a document of the key's version into one of the next version.
-MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _v1_to_v2}
+MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
+    1: _v1_to_v2,
+    2: _v2_to_v3,
+}
 
 
 def _schema_version(document: dict[str, Any]) -> int:

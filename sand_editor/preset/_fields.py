@@ -50,8 +50,6 @@ class FieldSpec:
         alone) or ``"none"`` (not shown by the renderer: name, description).
     count
         Number of elements for ``"colors"`` and ``"weights"``.
-    odd
-        Only odd integers are allowed.
     multiline
         Text may contain line breaks and tabs.
     """
@@ -66,7 +64,6 @@ class FieldSpec:
     unit: str = ""
     cost: Cost = "none"
     count: int = 0
-    odd: bool = False
     multiline: bool = False
 
     @property
@@ -106,14 +103,7 @@ def _check_float(spec: FieldSpec, value: Any) -> float:
 
 
 def _check_int(spec: FieldSpec, value: Any) -> int:
-    number = check_integer(value, spec.path, int(spec.minimum), int(spec.maximum))
-    if spec.odd and number % 2 == 0:
-        raise PresetError(
-            f"{number} is even; allowed odd integers from "
-            f"{format_number(spec.minimum)} to {format_number(spec.maximum)}",
-            path=spec.path,
-        )
-    return number
+    return check_integer(value, spec.path, int(spec.minimum), int(spec.maximum))
 
 
 def _to_color(value: Any, path: str) -> Color:
@@ -245,26 +235,22 @@ FIELDS: tuple[FieldSpec, ...] = (
                 "Fraction of a cell a grain centre may move; 0 gives a regular lattice."),
     _generation("period", "int", 1, 256, 36, "Period",
                 "Grain cells along each side of one texture tile.", unit="cells"),
-    _shading("glint_shininess", "float", 0.1, 1000.0, 10.4, "Glint shininess",
-             "Phong exponent of a grain's highlight; higher is a smaller, sharper glint."),
-    _shading("glint_sigma", "float", 0.001, 10.0, 0.277, "Glint sigma",
-             "Width of the Gaussian over grain glint values that picks which grains sparkle.",
-             cost="moments"),
-    _shading("glint_mu", "float", -10.0, 10.0, 2.0, "Glint mu",
-             "Centre of that Gaussian; nearer the grain values (0 to 1) means more glints.",
-             cost="moments"),
-    _shading("sample_count", "int", 1, 15, 7, "Samples",
-             "Glint filter size: the footprint of N×N samples (odd) at close range.", odd=True),
-    _shading("sample_spread", "float", 0.0, 4.0, 0.305, "Sample spread",
-             "Spacing of those samples, in pixels: N × spread pixels are filtered."),
+    _shading("facet_roughness", "float", 0.01, 1.0, 0.219, "Facet roughness",
+             "How far the tiny facets of a grain's surface tilt from its shape (Beckmann α): "
+             "low is glassy, with small, sharp, bright glints; high is frosted, with broad, "
+             "dim ones."),
+    _shading("clear_grains", "float", 0.0, 1.0, 1.0, "Clear grains",
+             "Share of the top layer's grains that are clear enough to mirror the sun: how "
+             "many glints there are (0: none, 1: every grain).", cost="moments"),
+    _shading("grain_ior", "float", 1.3, 2.5, 1.458, "Grain refractive index",
+             "Index of refraction of the grains: quartz 1.46, volcanic glass about 1.55, "
+             "iron-oxide coatings up to 2.4; higher reflects more of the sun."),
     _shading("sss", "float", 0.0, 10.0, 0.733, "Subsurface",
              "Strength of subsurface scattering and absorption."),
     _shading("scattering", "float", 0.0, 1.0, 0.075, "Scattering",
              "Light scattered through grains to the side facing away from the light."),
     _shading("absorption", "float", 0.0, 10.0, 0.1, "Absorption",
              "Light absorbed inside the grains."),
-    _shading("fresnel_roughness", "float", 0.0, 1.0, 0.849, "Fresnel roughness",
-             "Damps the grazing rise of quartz's Fresnel reflection on glints (1: none)."),
     _shading("transmission", "float", 0.0, 1.0, 0.045, "Transmission",
              "Light transmitted through the grains toward the viewer."),
     _shading("transmission_roughness", "float", 0.0, 1.0, 0.0, "Transmission roughness",

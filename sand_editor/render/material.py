@@ -2,7 +2,8 @@
 
 ``SandMaterial.update(preset, grains=None)`` does only what a change needs: new grains when a
 generation parameter changed (or the grains given), new glint moments when a field of cost
-``moments`` changed, and nothing but uniforms for every other shading parameter.
+``moments`` (the share of clear grains) changed, and nothing but uniforms for every other
+shading parameter.
 ``bind(program)`` hands all of it to a program that includes ``shaders/sand_surface.glsl``.
 """
 
@@ -44,6 +45,7 @@ HOLE_SCALE2 = 0.25
 SHADER_DEFINES = {
     "HOLE_SCALE2": repr(HOLE_SCALE2),
     "LAYER_COLOURS": MAX_LAYERS * 4,
+    "MAX_LAYERS": MAX_LAYERS,
 }
 
 
@@ -101,6 +103,7 @@ class SandMaterial:
         self.preset: Preset | None = None  # whose shading is bound
         self.grains_generation = None  # the generation parameters of the grains held
         self.average_albedo = np.zeros(3, dtype=np.float32)
+        self.grain_slope_variance = 0.0
         self.close_cutoff = CLOSE_CUTOFF
         self._owned = GLObjects()
         keep = self._owned.keep
@@ -224,6 +227,7 @@ class SandMaterial:
         program["u_base_color"].value = tuple(nc.base_color)
         colours = nc.layer_colors.reshape(MAX_LAYERS * 4, 3).astype(np.float32)
         program["u_layer_colors"].write(colours.tobytes())
+        program["u_layer_light"].write(nc.layer_light.astype(np.float32).tobytes())
         program["u_colour_thresholds"].value = tuple(
             int(t) for t in colour_thresholds(nc.cumulative_weights)
         )
@@ -241,6 +245,16 @@ class SandMaterial:
         texel = np.frombuffer(read_without_gil(self.albedo, level=top), dtype=np.float16)
         texel = texel.astype(np.float32)
         self.average_albedo = texel[:3].copy()
+        # And of the clear grains' slopes: their per-axis variance widens the facets' masking.
+        glint = np.frombuffer(self.glint_moments.read(level=top), dtype=np.float32)
+        spread = np.frombuffer(self.spread_moments.read(level=top), dtype=np.float32)
+        w = float(glint[0])
+        if w > 1e-6:
+            mean = glint[1:3] / w
+            variance = np.maximum(spread[:2] / w - mean * mean, 0.0)
+            self.grain_slope_variance = float(variance.mean())
+        else:
+            self.grain_slope_variance = 0.0
 
     @property
     def close_limit(self) -> float:
@@ -273,6 +287,7 @@ class SandMaterial:
         values = {spec.uniform: self.preset.get(spec.path) for spec in _SHADING_FIELDS}
         values.update(
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
+            u_grain_slope_variance=self.grain_slope_variance,
             u_texture_size=float(self.texture_size),
             u_max_lod=self.max_lod,
             u_close_cutoff=float(self.close_cutoff),

@@ -64,15 +64,15 @@ def test_wide_ranges_slide_logarithmically_and_reach_both_ends(window):
     assert window.model.preset.shading.uv_scale == 0.01
 
 
-def test_sample_count_controls_only_give_odd_values(window):
-    slider = control(window, "shading.sample_count", "slider", QSlider)
-    spin = control(window, "shading.sample_count", "spin", QSpinBox)
-    slider.setValue(2)
-    assert window.model.preset.shading.sample_count == 5
-    assert spin.value() == 5
+def test_integer_controls_move_together(window):
+    slider = control(window, "generation.layers", "slider", QSlider)
+    spin = control(window, "generation.layers", "spin", QSpinBox)
+    slider.setValue(3)
+    assert window.model.preset.generation.layers == 3
+    assert spin.value() == 3
     spin.stepBy(1)
-    assert window.model.preset.shading.sample_count == 7
-    assert spin.fixup("4") == "5"
+    assert window.model.preset.generation.layers == 4
+    assert slider.value() == 4
 
 
 def test_a_refused_edit_leaves_model_and_widget_unchanged(window):

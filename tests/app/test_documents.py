@@ -66,7 +66,7 @@ def test_open_replaces_the_preset_and_clears_history(window, tmp_path):
 
 def test_save_writes_a_file_that_loads_back_equal(window, tmp_path):
     window.model.edit("generation.roundness", 0.6)
-    window.model.edit("shading.glint_mu", -1.5)
+    window.model.edit("shading.clear_grains", 0.4)
     assert window.isWindowModified()
     path = tmp_path / "mine.json"
 

@@ -37,10 +37,10 @@ def test_shading_change_does_not_regenerate(window, qtbot):
     generations = window.regenerator.generations
     textures = window.preview.textures
 
-    window.model.edit("shading.glint_mu", 1.0)
+    window.model.edit("shading.clear_grains", 0.5)
     qtbot.wait(300)  # several debounce intervals
 
-    assert window.model.preset.shading.glint_mu == 1.0
+    assert window.model.preset.shading.clear_grains == 0.5
     assert not window.regenerator.busy
     assert window.regenerator.generations == generations
     assert window.preview.textures is textures

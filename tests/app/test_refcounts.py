@@ -134,16 +134,16 @@ def test_the_editors_signal_paths_keep_the_singleton_counts(window, qtbot):
     counter = connect_counter(window, panel)
     model = window.model
     panel.day_speed.setValue(1.0)  # an hour a second  # the day clock runs throughout
-    shininess = model.preset.shading.glint_shininess
+    roughness = model.preset.shading.facet_roughness
 
     generations = 0
     step = 0
     while counter.emissions < 12_000 and counter.healthy():
         step += 1
         # Shading edits: a model emission each and a 3D frame when the loop turns.
-        model.edit("shading.glint_shininess", shininess + step % 7, gesture=True)
+        model.edit("shading.facet_roughness", roughness + 0.01 * (step % 7), gesture=True)
         model.edit("shading.sss", 0.5 + 0.1 * (step % 2))
-        model.edit("shading.glint_sigma", -1.0)  # refused: the refusal path emits too
+        model.edit("shading.clear_grains", -1.0)  # refused: the refusal path emits too
         panel.view.orbited.emit(0.5, 0.0)
         panel.view.zoomed.emit(1.0)
         if step % 25 == 0:
@@ -178,7 +178,7 @@ def test_soak_the_3d_view_with_the_clock_running(window, qtbot):
     while panel.view.frames - start_frames < SOAK_FRAMES and counter.healthy():
         qtbot.wait(1)
         edits += 1
-        window.model.edit("shading.glint_shininess", 10.0 + edits % 50, gesture=True)
+        window.model.edit("shading.facet_roughness", 0.1 + 0.01 * (edits % 50), gesture=True)
     panel.day_speed.setValue(0)
 
     assert counter.healthy(), f"references lost after {counter.emissions}: {counter.fallen}"

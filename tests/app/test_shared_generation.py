@@ -94,7 +94,7 @@ def test_a_hidden_3d_view_does_no_work(window, qtbot):
 
     window.model.edit("generation.seed", 5)
     wait_generated(window, qtbot)
-    window.model.edit("shading.glint_shininess", 50.0)
+    window.model.edit("shading.facet_roughness", 0.5)
     qtbot.wait(400)
 
     assert window.regenerator.generations == generations + 1  # the 2D preview's tile
@@ -141,7 +141,7 @@ def test_undo_shows_the_cached_tile_without_generating(window, qtbot):
 
 
 def test_a_material_on_uploaded_grains_equals_one_generated_in_place(gl_clean):
-    preset = Preset().replace(**{"generation.seed": 11, "shading.glint_mu": 0.5})
+    preset = Preset().replace(**{"generation.seed": 11, "shading.clear_grains": 0.5})
     in_place = SandMaterial(gl_clean, 128)
     uploaded = SandMaterial(gl_clean, 128)
     try:
@@ -165,11 +165,11 @@ def test_grains_keep_their_own_colours_under_a_newer_preset(gl_clean):
     # A tile arriving after a further generation edit is shaded with the newest preset but
     # coloured by the generation that made it: no grains drawn in another sand's colours.
     old = Preset().replace(**{"generation.seed": 3})
-    newer = old.replace(**{"generation.base_color": "#e01a1a", "shading.glint_mu": 0.7})
+    newer = old.replace(**{"generation.base_color": "#e01a1a", "shading.clear_grains": 0.7})
     late, direct = SandMaterial(gl_clean, 128), SandMaterial(gl_clean, 128)
     try:
         late.update(newer, grains=generate(old, 128, ctx=gl_clean))
-        direct.update(old.replace(**{"shading.glint_mu": 0.7}))
+        direct.update(old.replace(**{"shading.clear_grains": 0.7}))
         assert late.preset == newer and late.grains_generation == old.generation
         assert late.albedo.read() == direct.albedo.read()
         assert late.glint_moments.read() == direct.glint_moments.read()
@@ -206,15 +206,15 @@ def test_a_thousand_edits_leave_gl_objects_and_memory_flat(window, qtbot):
     panel = open_3d(window, qtbot)
     view = panel.view
     model = window.model
-    fields = ("generation.seed", "shading.glint_mu", "shading.glint_shininess")
+    fields = ("generation.seed", "shading.clear_grains", "shading.facet_roughness")
 
     def edit_many(count: int, offset: int) -> None:
         for i in range(count):
             path = fields[i % len(fields)]
             value = {
                 "generation.seed": 1000 + offset + i,
-                "shading.glint_mu": 0.5 + (i % 10) * 0.1,
-                "shading.glint_shininess": 5.0 + i % 40,
+                "shading.clear_grains": 0.05 + (i % 10) * 0.1,
+                "shading.facet_roughness": 0.05 + 0.02 * (i % 40),
             }[path]
             model.edit(path, value)
             if i % 250 == 125:

@@ -11,7 +11,7 @@ from sand_editor.preset import Preset
 
 pytestmark = pytest.mark.qt
 
-PATH = "shading.glint_shininess"
+PATH = "shading.uv_scale"
 
 
 def live_commands() -> int:

@@ -70,10 +70,10 @@ def test_shading_changes_keep_the_grains_and_generation_changes_replace_them(pan
     uploads = view.grain_uploads
     frames = view.frames
 
-    panel.model.edit("shading.glint_mu", 1.0)
+    panel.model.edit("shading.clear_grains", 0.5)
     qtbot.waitUntil(lambda: view.frames > frames, timeout=TIMEOUT_MS)
     assert view.grain_uploads == uploads
-    assert material.preset.shading.glint_mu == 1.0
+    assert material.preset.shading.clear_grains == 0.5
 
     panel.model.edit("generation.seed", panel.model.preset.generation.seed + 1)
     qtbot.waitUntil(lambda: view.grain_uploads > uploads, timeout=TIMEOUT_MS)

@@ -250,7 +250,7 @@ def test_no_runtime_offers_the_desktop_preview_which_follows_the_editor_both_way
     # A slider drag: the first value goes at once, the rest as one message with the latest.
     seq_before = vr.link.seq
     for step in range(10):
-        window.model.edit("shading.glint_shininess", 5.0 + step, gesture=True)
+        window.model.edit("shading.facet_roughness", 0.05 + 0.01 * step, gesture=True)
     window.model.end_gesture()
     qtbot.wait(3 * SEND_INTERVAL_MS)
     assert 1 <= vr.link.seq - seq_before <= 2
@@ -335,10 +335,10 @@ def test_a_viewer_that_hangs_is_reported_and_ended_by_stop(vr, window, qtbot):
     pid = vr.link.process.processId()
     os.kill(pid, signal.SIGSTOP)  # frozen, as a viewer stuck in a driver call would be
     try:
-        window.model.edit("shading.glint_shininess", 20.0)
+        window.model.edit("shading.facet_roughness", 0.2)
         qtbot.waitUntil(lambda: vr.state_label.text() == "Not responding", timeout=10_000)
         assert "may be hanging" in window.statusBar().currentMessage()
-        assert window.model.edit("shading.glint_shininess", 21.0)  # the editor goes on
+        assert window.model.edit("shading.facet_roughness", 0.21)  # the editor goes on
         with finished_signal(vr, qtbot) as finished:
             qtbot.mouseClick(vr.button, Qt.MouseButton.LeftButton)
             assert vr.state_label.text() == "Closing…"
@@ -365,7 +365,7 @@ def test_a_long_session_of_drags_keeps_the_link_flat(vr, window, qtbot):
         # is measured here) empty.
         for step in range(100):
             value = 5.0 + (round_ * 100 + step) % 50
-            model.reset(model.preset.replace(**{"shading.glint_shininess": value}))
+            model.reset(model.preset.replace(**{"shading.facet_roughness": value}))
             qtbot.wait(5)
         qtbot.waitUntil(lambda: vr.link.last_sent_preset == window.model.preset)
         seq = vr.link.seq
@@ -458,7 +458,7 @@ def test_the_headset_round_trip_in_the_openxr_runtime(vr, window, qtbot, monado_
     # Through a wrapper the preset goes over the link (the wrapper may not see this machine's
     # temporary files): it is the first one applied. Then an edit follows it.
     qtbot.waitUntil(lambda: 1 in applied, timeout=ANSWER_TIMEOUT_MS)
-    window.model.edit("shading.glint_mu", 1.5)
+    window.model.edit("shading.clear_grains", 0.5)
     qtbot.waitUntil(lambda: vr.link.seq == 2, timeout=ANSWER_TIMEOUT_MS)
     qtbot.waitUntil(lambda: 2 in applied, timeout=ANSWER_TIMEOUT_MS)
 

@@ -34,12 +34,12 @@ BAD_CONTENT = [
     pytest.param(_document(schema_version=...), ["schema_version: missing"], id="no-version"),
     pytest.param(_document(schema_version="2"), ["schema_version", "a string"], id="version-str"),
     pytest.param(_document(schema_version=2.0), ["schema_version", "a number"], id="version-flt"),
-    pytest.param(_document(schema_version=0), ["schema_version", "1 to 2"], id="version-0"),
+    pytest.param(_document(schema_version=0), ["schema_version", "1 to 3"], id="version-0"),
     pytest.param(
-        _document(schema_version=3),
+        _document(schema_version=4),
         [
-            "schema_version: written by a newer Sand Editor: schema version 3, "
-            "this version reads up to 2"
+            "schema_version: written by a newer Sand Editor: schema version 4, "
+            "this version reads up to 3"
         ],
         id="version-newer",
     ),
@@ -118,7 +118,7 @@ BAD_CONTENT = [
         id="base-color-short",
     ),
     pytest.param(
-        _document(**{"shading.sample_count": 6}), ["shading.sample_count", "odd"], id="even-samples"
+        _document(**{"shading.grain_ior": 3}), ["shading.grain_ior", "allowed 1.3 to 2.5"], id="ior"
     ),
     pytest.param(_document(generation=[1]), ["generation", "allowed an object"], id="section"),
     pytest.param(_document(name=""), ["name", "allowed 1 to 80"], id="name-empty"),
@@ -193,7 +193,7 @@ def test_saved_file_layout(tmp_path):
     preset.save(path)
     text = path.read_bytes().decode("utf-8")
     assert text.endswith("}\n") and not text.endswith("\n\n")
-    assert text.startswith('{\n  "format": "sand-editor-preset",\n  "schema_version": 2,\n')
+    assert text.startswith('{\n  "format": "sand-editor-preset",\n  "schema_version": 3,\n')
     assert '"name": "Grès rouge"' in text
     assert '    "weights": [22, 18, 56, 4],\n' in text
     assert list(json.loads(text)) == [

@@ -31,9 +31,9 @@ from sand_editor.preset import Color, Generation, Preset, PresetError, Shading
             ["generation.colors[1]", "#rrggbb"],
         ),
         (lambda: Generation(base_color=(1, 2, 3)), ["generation.base_color", "#rrggbb"]),
-        (lambda: Shading(sample_count=8), ["shading.sample_count", "odd"]),
-        (lambda: Shading(sample_count=17), ["shading.sample_count", "allowed 1 to 15"]),
-        (lambda: Shading(glint_shininess=0), ["shading.glint_shininess", "allowed 0.1 to 1000"]),
+        (lambda: Shading(clear_grains=1.5), ["shading.clear_grains", "allowed 0 to 1"]),
+        (lambda: Shading(facet_roughness=0), ["shading.facet_roughness", "allowed 0.01 to 1"]),
+        (lambda: Shading(grain_ior=1.0), ["shading.grain_ior", "allowed 1.3 to 2.5"]),
         (lambda: Shading(sigmoid_b=-101), ["shading.sigmoid_b", "allowed -100 to 1000"]),
         (lambda: Preset(name=""), ["name", "allowed 1 to 80"]),
         (lambda: Preset(name="x" * 81), ["name", "allowed 1 to 80"]),
@@ -74,9 +74,10 @@ def test_presets_are_frozen_and_hashable():
 
 def test_replace_with_dotted_paths():
     preset = Preset()
-    changed = preset.replace(**{"generation.threshold": 0.4, "shading.glint_mu": 1, "name": "x"})
+    changes = {"generation.threshold": 0.4, "shading.clear_grains": 0, "name": "x"}
+    changed = preset.replace(**changes)
     assert changed.generation.threshold == 0.4
-    assert changed.shading.glint_mu == 1.0
+    assert changed.shading.clear_grains == 0.0
     assert changed.name == "x"
     assert changed.generation.layers == preset.generation.layers
     assert preset.generation.threshold == 0.296  # the original is untouched
@@ -91,7 +92,7 @@ def test_replace_with_a_section_object_then_dotted_paths_into_it():
     ("changes", "expected"),
     [
         ({"generation.threshold": 1.5}, ["generation.threshold", "allowed 0 to 1"]),
-        ({"shading.sample_count": 4}, ["shading.sample_count", "odd"]),
+        ({"shading.clear_grains": -0.1}, ["shading.clear_grains", "allowed 0 to 1"]),
         ({"generation.treshold": 0.4}, ["generation.treshold", "'generation.threshold'"]),
         ({"threshold": 0.4}, ["threshold", "unknown field"]),
         ({"generation.layers.x": 1}, ["generation.layers.x", "unknown field"]),

@@ -67,4 +67,9 @@ def test_palettes_match_their_sands():
     red = _load("red-desert").generation
     assert all(color.r > color.b for color in red.colors)
     volcanic = _load("black-volcanic")
-    assert volcanic.shading.glint_shininess > _load("paper-default").shading.glint_shininess
+    # Volcanic glass: glassier facets (sharper glints) and a higher index than quartz.
+    assert volcanic.shading.facet_roughness < _load("paper-default").shading.facet_roughness
+    assert volcanic.shading.grain_ior > _load("pale-quartz").shading.grain_ior
+    # Iron-oxide coatings: few clear grains, dull sheen.
+    red = _load("red-desert").shading
+    assert red.clear_grains < volcanic.shading.clear_grains and red.facet_roughness > 0.3

@@ -48,8 +48,8 @@ def shade(probe, distance, mode="full", pitch=45.0, **options):
 
 def test_glints_are_present_close_up(probe):
     assert shade(probe, 0.1, "glints").max() > 0
-    # Selecting grains of common glint values (μ 0.9) makes many glint, brightly.
-    probe.material.update(Preset().replace(**{"shading.glint_mu": 0.9, "shading.glint_sigma": 0.2}))
+    # Glassy facets on every grain: many glint, brightly.
+    probe.material.update(Preset().replace(**{"shading.facet_roughness": 0.08}))
     glints = shade(probe, 0.1, "glints") @ LUMINANCE
     diffuse = shade(probe, 0.1, "close") @ LUMINANCE - glints
     # Glints are highlights: the brightest are far above the diffuse sand around them.
@@ -71,10 +71,10 @@ def test_no_glints_far_away_only_the_brdf(probe):
     np.testing.assert_allclose(full, far, rtol=1e-5, atol=1e-6)
 
 
-def test_unselected_grains_do_not_glint(probe):
-    # μ far from every glint value in [0, 1] selects no grain.
-    probe.material.update(Preset().replace(**{"shading.glint_mu": -10.0}))
+def test_no_clear_grains_no_glints(probe):
+    probe.material.update(Preset().replace(**{"shading.clear_grains": 0.0}))
     assert shade(probe, 0.1, "glints").max() == 0.0
+    assert shade(probe, 10.0, "far").max() > 0.0  # the diffuse light is still there
 
 
 def test_blend_weight_grows_with_distance(probe):
@@ -152,10 +152,10 @@ def test_updates_redo_only_what_changed(probe):
     material = probe.material
     grains = material._grains
     before = grains.normal_height.read()
-    material.update(Preset().replace(**{"shading.glint_shininess": 30.0}))
+    material.update(Preset().replace(**{"shading.facet_roughness": 0.5}))
     assert grains.normal_height.read() == before, "a shading change must not regenerate grains"
     built = material._built_for
-    material.update(Preset().replace(**{"shading.glint_mu": 0.9}))
+    material.update(Preset().replace(**{"shading.clear_grains": 0.4}))
     assert material._built_for != built and grains.normal_height.read() == before
     material.update(Preset().replace(**{"generation.seed": 99}))
     assert grains.normal_height.read() != before, "new generation parameters, new grains"
@@ -318,7 +318,7 @@ def test_sparkles_flicker_no_more_than_the_ground_truth_under_sub_pixel_motion(f
 
 def test_a_material_built_with_blending_left_on_is_the_one_built_with_it_off(gl_clean):
     """A host's paint callback may leave blending on (Qt does): the build passes overwrite."""
-    preset = Preset().replace(**{"shading.glint_mu": 0.6})
+    preset = Preset().replace(**{"shading.clear_grains": 0.6})
     reference = SandMaterial(gl_clean, 64)
     updated = SandMaterial(gl_clean, 64)
     made = None

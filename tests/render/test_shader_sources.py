@@ -53,14 +53,16 @@ def test_every_shading_field_is_a_uniform_the_surface_declares_and_uses(gl_clean
             if spec.section != "shading":
                 continue
             assert spec.uniform == f"u_{spec.name}", spec.path
-            assert spec.uniform in declared, f"{spec.path}: sand_surface.glsl lacks its uniform"
+            where = "material_build.frag" if spec.cost == "moments" else "sand_surface.glsl"
+            assert spec.uniform in _declared(where), f"{spec.path}: {where} lacks its uniform"
             if spec.uniform not in active:
                 unused.append(spec.path)
             # A field whose change rebuilds the moments is the one the build reads.
             assert (spec.cost == "moments") == (spec.uniform in build), spec.path
         assert unused == [], f"no production program uses {unused}"
         # And the other way: a uniform named like a field is that field's.
-        field_like = {name for name in declared if name[2:] in {s.name for s in FIELDS}}
+        names = {s.name for s in FIELDS if s.section == "shading"}
+        field_like = {n for n in declared | _declared("material_build.frag") if n[2:] in names}
         assert field_like == {s.uniform for s in FIELDS if s.uniform}
     finally:
         for p in programs:
@@ -72,10 +74,11 @@ def test_a_uniform_no_shader_declares_raises_and_an_unused_one_is_skipped(gl_cle
 
     far = program(gl_clean, "terrain.glsl", surface_defines(SAND_FAR_ONLY=1))
     try:
-        assert "u_glint_mu" not in far  # declared, but the far variant has no glints
-        set_uniform(far, "u_glint_mu", 2.0)
-        with pytest.raises(UniformError, match="u_glint_muu"):
-            set_uniform(far, "u_glint_muu", 2.0)
+        # Declared, but only the close range's sparkle placement reads it.
+        assert "u_texture_size" not in far
+        set_uniform(far, "u_texture_size", 1024.0)
+        with pytest.raises(UniformError, match="u_texture_sizee"):
+            set_uniform(far, "u_texture_sizee", 1024.0)
         set_uniform(far, "u_sigmoid_a", 3.0)
         assert far["u_sigmoid_a"].value == 3.0
     finally:

@@ -7,6 +7,9 @@
 // finest level); 4 ground truth (every facet in the pixel, explicitly); 5 and 6: the expectations
 // of 0 and 4 over their draws (no sparkle), which measure energy free of the draws' noise.
 uniform int u_glint_filter;
+// The reference's kernel: N×N taps, this many pixels apart (its saved preview material).
+const int REFERENCE_SAMPLES = 7;
+const float REFERENCE_SPREAD = 0.305;
 uniform int u_ground_truth_samples;  // K: K×K jittered samples of albedo and slope
 
 // A random point in stratum (i, j) of a k×k grid over the pixel, centred on it. Regular taps
@@ -22,7 +25,7 @@ vec2 stratum_offset(int i, int j, int k) {
 // n-th row and column (only far views, where a pixel holds tens of thousands of facets).
 const int GROUND_TRUTH_FACETS = 128;
 
-// Whether a facet mirrors each light: with the chance its grain's expected glint gives it (at
+// Whether a facet mirrors each light: with the chance its grain's facet density gives it (at
 // its centre, on the finest level), drawn anew in every half-vector bin; without `draw`, the
 // chance.
 vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
@@ -37,12 +40,12 @@ vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
     vec2 offset = vec2(open01(key), open01(lowbias32(key)));
     vec2 mirrors = vec2(0.0);
     if (h0.valid) {
-        float chance = min(mirror_chance(w * glint_lobe(b, h0.slope, h0.variance), h0), 1.0);
+        float chance = min(mirror_chance(w * facet_density(b, h0.slope, h0.variance), h0), 1.0);
         float u = open01(hash_cell(half_vector_bin(h0.slope, offset), key));
         mirrors.x = draw ? (u < chance ? 1.0 : 0.0) : chance;
     }
     if (h1.valid) {
-        float chance = min(mirror_chance(w * glint_lobe(b, h1.slope, h1.variance), h1), 1.0);
+        float chance = min(mirror_chance(w * facet_density(b, h1.slope, h1.variance), h1), 1.0);
         uint moon_key = lowbias32(key ^ 0x9e3779b9u);
         float u = open01(hash_cell(half_vector_bin(h1.slope, offset), moon_key));
         mirrors.y = draw ? (u < chance ? 1.0 : 0.0) : chance;
@@ -51,8 +54,8 @@ vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
 }
 
 // Ground truth: every facet whose centre lies in the pixel's footprint (a parallelogram in
-// texture space), each mirroring or not as drawn by facet_mirrors; returned in the units of
-// E[w·lobe] (mirroring share over the chance per unit of expected glint), so that it compares
+// texture space), each mirroring or not as drawn by facet_mirrors; returned as a density of
+// mirroring slopes (mirroring share over the chance per unit of density), so that it compares
 // with the other filters one to one.
 vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
     float per_tile = max(floor(1.0 / (FACET_SIZE_M * u_uv_scale) + 0.5), 1.0);
@@ -86,20 +89,21 @@ vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) 
                 per_unit.y > 0.0 ? mirrored.y / (inside * per_unit.y) : 0.0);
 }
 
-// The glint E[w·lobe] of two lights over the pixel, by the filter the probe selected.
+// The densities of mirroring slopes of two lights over the pixel, by the filter the probe
+// selected.
 vec2 probe_glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
     vec2 glint = vec2(0.0);
     if (u_glint_filter == FILTER_OURS) {
         glint = sparkle ? sparkling_factors(f, h0, h1, true)
-                        : expected_factors(f, h0, h1, reference_footprint());
+                        : expected_factors(f, h0, h1, REFERENCE_FOOTPRINT);
     } else if (u_glint_filter == FILTER_OURS_MEAN) {
         glint = sparkling_factors(f, h0, h1, false);
     } else if (u_glint_filter == FILTER_EXPECTED) {
-        glint = expected_factors(f, h0, h1, reference_footprint());
+        glint = expected_factors(f, h0, h1, REFERENCE_FOOTPRINT);
     } else if (u_glint_filter == FILTER_REFERENCE) {
         // N×N taps spaced by spread × the pixel's derivatives, Gaussian-weighted; each tap
-        // evaluates the lobe at the mip-averaged normal and the selection at the averaged g.
-        int n = max(u_sample_count, 1);
+        // evaluates the facets at the mip-averaged normal and whether the averaged g is clear.
+        int n = REFERENCE_SAMPLES;
         float half_n = float(n - 1) * 0.5;
         float sigma = max(half_n, 0.5) * 0.5;
         float total = 0.0;
@@ -107,17 +111,17 @@ vec2 probe_glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle
             for (int i = 0; i < n; ++i) {
                 vec2 o = vec2(float(i) - half_n, float(j) - half_n);
                 float weight = exp(-0.5 * dot(o, o) / (sigma * sigma));
-                vec2 tc = f.tc + u_sample_spread * (o.x * f.dx + o.y * f.dy);
+                vec2 tc = f.tc + REFERENCE_SPREAD * (o.x * f.dx + o.y * f.dy);
                 vec2 b = textureGrad(u_spread_moments, tc, f.dx, f.dy).zw;
-                float g = textureGrad(u_albedo, tc, f.dx, f.dy).a;
-                glint += weight * glint_selection(g) * lobes(h0, h1, b);
+                float w = textureGrad(u_glint_moments, tc, f.dx, f.dy).x;
+                glint += weight * w * densities(h0, h1, b);
                 total += weight;
             }
         }
         glint /= total;
     } else if (u_glint_filter == FILTER_NONE) {
         float w = textureLod(u_glint_moments, f.tc, 0.0).x;
-        glint = w < 1e-6 ? vec2(0.0) : w * lobes(h0, h1, textureLod(u_spread_moments, f.tc, 0.0).zw);
+        glint = w < 1e-6 ? vec2(0.0) : w * densities(h0, h1, textureLod(u_spread_moments, f.tc, 0.0).zw);
     } else {
         glint = ground_truth_factors(f, h0, h1, u_glint_filter == FILTER_GROUND_TRUTH);
     }
