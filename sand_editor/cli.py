@@ -160,6 +160,12 @@ def _cmd_bench(args) -> int:
         from sand_editor.bench.render import main as bench_render
 
         return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
+    if args.what == "appearance":
+        if args.sizes:
+            raise CommandError("--sizes applies to the generator benchmark only")
+        from sand_editor.bench.sweep import main as bench_appearance
+
+        return bench_appearance(quick=args.quick, json_path=args.json, plot_path=args.plot)
     if args.what == "editor":
         if args.sizes or args.plot:
             raise CommandError("--sizes and --plot do not apply to the editor benchmark")
@@ -256,7 +262,7 @@ def _parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="measure speed against error")
     bench.add_argument(
         "what",
-        choices=["generator", "render", "editor", "vr-link", "vr-runtime"],
+        choices=["generator", "render", "appearance", "editor", "vr-link", "vr-runtime"],
         help="what to measure",
     )
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
