@@ -8,6 +8,8 @@
 //            normal, n ∝ (bx, by, 1))
 //   spread:  w·bx², w·by², bx, by
 //   hole:    w·exp(−|b|²/2s₀²), the slope density near zero at scale s₀ (sand_surface.glsl)
+//   normal:  nx, ny, nx², ny² of every texel's unit normal (the diffuse light's distribution
+//            of normals)
 // so a footprint's w-weighted slope mean and covariance (LEAN mapping) and its plain mean slope
 // (the diffuse normal) come out of one trilinear fetch per texture.
 
@@ -23,6 +25,7 @@ layout(location = 0) out vec4 out_albedo;
 layout(location = 1) out vec4 out_glint;
 layout(location = 2) out vec4 out_spread;
 layout(location = 3) out float out_hole;
+layout(location = 4) out vec4 out_normal;
 
 
 
@@ -52,4 +55,5 @@ void main() {
     out_glint = vec4(w, w * b, w * b.x * b.y);
     out_spread = vec4(w * b * b, b);
     out_hole = w * exp(-0.5 * dot(b, b) / HOLE_SCALE2);
+    out_normal = vec4(n.xy, n.xy * n.xy);
 }

@@ -167,10 +167,9 @@ HalfVector half_vector(vec3 l_t, vec3 v_t) {
     return h;
 }
 
-// Smith's masking–shadowing of the footprint's facets: Beckmann of the facets' roughness
-// widened by the grains' own spread of slopes.
+// Smith's masking–shadowing of a grain's facets (Beckmann of the facets' roughness).
 float masking(HalfVector h) {
-    float alpha = sqrt(2.0 * h.variance + 2.0 * u_grain_slope_variance);
+    float alpha = sqrt(2.0 * h.variance);
     return 1.0 / (1.0 + smith_lambda(h.cos_view, alpha) + smith_lambda(h.cos_light, alpha));
 }
 

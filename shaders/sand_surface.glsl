@@ -23,6 +23,7 @@ uniform sampler2D u_albedo;          // linear albedo, glint value g
 uniform sampler2D u_glint_moments;   // w, w·bx, w·by, w·bx·by
 uniform sampler2D u_spread_moments;  // w·bx², w·by², bx, by
 uniform sampler2D u_hole_moments;    // w·exp(−|b|²/2s₀²)
+uniform sampler2D u_normal_moments;  // nx, ny, nx², ny² of every texel's unit grain normal
 uniform sampler2D u_ripple_steep;    // tangent-space slope (∂h/∂u, ∂h/∂v) of ripples, 1 m tile
 uniform sampler2D u_ripple_shallow;
 uniform sampler2D u_detail;
@@ -32,7 +33,6 @@ uniform float u_max_lod;
 uniform float u_uv_scale;            // tiles per metre
 uniform float u_facet_roughness;     // Beckmann α of facets about their grain's normal
 uniform float u_grain_ior;           // the grains' index of refraction
-uniform float u_grain_slope_variance;  // per-axis variance of clear grains' slopes (the tile)
 uniform float u_sss;
 uniform float u_scattering;
 uniform float u_absorption;
@@ -79,13 +79,15 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
 #endif
 }
 
-// Albedo and mean slope of the footprint (the ground truth averages its finest-level taps).
-void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
+// Albedo, mean slope and the grain normals' moments of the footprint (the ground truth averages
+// its finest-level taps).
+void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope, out vec4 normals) {
 #if defined SAND_PROBE
-    if (probe_footprint_surface(f, albedo, slope)) return;
+    if (probe_footprint_surface(f, albedo, slope, normals)) return;
 #endif
     albedo = textureGrad(u_albedo, f.tc, f.dx, f.dy).rgb;
     slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
+    normals = textureGrad(u_normal_moments, f.tc, f.dx, f.dy);
 }
 
 #include "sand_far.glsl"
@@ -121,7 +123,7 @@ vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
     return u_transmission * albedo * irradiance * forward / PI;
 }
 
-// Everything but the glints' specular light, for a shading normal n and albedo kd.
+// Everything but the glints' specular light, for one shading normal n and albedo kd.
 vec3 sand_diffuse_light(vec3 kd, vec3 n, vec3 v, Lighting L) {
     vec3 radiance = sand_sky(kd, n, L.sky_irradiance);
     radiance += sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
@@ -129,6 +131,31 @@ vec3 sand_diffuse_light(vec3 kd, vec3 n, vec3 v, Lighting L) {
     radiance += grain_transmission(kd, L.sun_direction, v, L.sun_radiance);
     radiance += grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
     return radiance;
+}
+
+const float DIFFUSE_CENTRE = 0.2;
+const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance held
+
+// The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
+// their squares), as the grains themselves give it when each is resolved: at four normals
+// whose nx, ny hold that mean and variance exactly (n̄ ± √2·σ along each axis). Unit normals
+// rather than slopes: bounded, and the cosine of the light is linear in them. The same average
+// at every scale, so that the far range's diffuse light is the close range's.
+vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L) {
+    vec2 m = normals.xy;
+    vec2 spread = DIFFUSE_RING * sqrt(max(normals.zw - m * m, 0.0));
+    vec2 points[5] = vec2[5](m, m + vec2(spread.x, 0.0), m - vec2(spread.x, 0.0),
+                             m + vec2(0.0, spread.y), m - vec2(0.0, spread.y));
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i < 5; ++i) {
+        vec2 p = points[i];
+        float len2 = dot(p, p);
+        if (len2 > 0.998) p *= sqrt(0.998 / len2);
+        vec3 n = vec3(p, sqrt(max(1.0 - dot(p, p), 0.0)));
+        sum += (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE))
+             * sand_diffuse_light(kd, to_world(n, s), v, L);
+    }
+    return sum;
 }
 
 struct Shaded {
@@ -164,7 +191,8 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     Shaded c;
     vec3 albedo;
     vec2 slope;
-    footprint_surface(f, albedo, slope);
+    vec4 normals;
+    footprint_surface(f, albedo, slope, normals);
     c.micro_normal = to_world(normalize(vec3(slope, 1.0)), s);
     vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
     c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
@@ -187,7 +215,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     } else {
         c.glint = sand_specular(densities, h[0], h[1], L);
     }
-    c.radiance = sand_diffuse_light(albedo, c.micro_normal, v, L) + c.glint;
+    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L) + c.glint;
     return c;
 }
 
@@ -200,7 +228,10 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     HalfVector h0, h1;
     half_vectors_at(f, vec2(0.0), h0, h1);
     vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
-    return sand_diffuse_light(kd, s.normal, v, L) + sand_specular(tile_factors(h0, h1), h0, h1, L);
+    vec2 centre = vec2(0.5);
+    vec4 normals = textureLod(u_normal_moments, centre, u_max_lod);
+    return filtered_diffuse_light(kd, normals, s, v, L)
+         + sand_specular(tile_factors(h0, h1), h0, h1, L);
 }
 
 

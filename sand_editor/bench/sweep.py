@@ -139,12 +139,18 @@ def run(quick: bool = False) -> dict:
         rows = [row for p in sweep_presets(4 if quick else 16) for row in sweep.measure(p)]
     finally:
         sweep.release()
-    return {"machine": machine_description(ctx), "rows": rows}
+    from sand_editor.bench.mitsuba_reference import compare
+
+    shipped = [Preset.load(bundled_preset(name)) for name in SHIPPED]
+    presets = shipped[:1] if quick else shipped
+    distances = (3.0,) if quick else (1.0, 3.0, 10.0, 30.0)
+    reference = compare(presets, distances, spp=16 if quick else 64)
+    return {"machine": machine_description(ctx), "rows": rows, "mitsuba": reference}
 
 
 def format_table(results: dict) -> str:
     lines = [
-        f"Appearance sweep on {results['machine']}",
+        "Appearance sweep, {gl_renderer}, {cpu_count} CPUs".format(**results["machine"]),
         "",
         "| preset | worst close/far (at) | clipped white, most | NaN or inf |",
         "| --- | ---: | ---: | --- |",
@@ -159,6 +165,15 @@ def format_table(results: dict) -> str:
         lines.append(
             f"| {name} | {worst['close_over_far']:.3f} ({at}) | {clipped * 100:.2f} % | {finite} |"
         )
+    if results.get("mitsuba"):
+        from sand_editor.bench.mitsuba_reference import format_rows
+
+        lines += [
+            "",
+            "Against Mitsuba 3 (scalar_rgb), mean HDR luminance, ours over Mitsuba's:",
+            "",
+        ]
+        lines.append(format_rows(results["mitsuba"]))
     return "\n".join(lines)
 
 

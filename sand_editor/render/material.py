@@ -103,7 +103,6 @@ class SandMaterial:
         self.preset: Preset | None = None  # whose shading is bound
         self.grains_generation = None  # the generation parameters of the grains held
         self.average_albedo = np.zeros(3, dtype=np.float32)
-        self.grain_slope_variance = 0.0
         self.close_cutoff = CLOSE_CUTOFF
         self._owned = GLObjects()
         keep = self._owned.keep
@@ -119,7 +118,16 @@ class SandMaterial:
             keep(self._filterable(ctx.texture((size, size), 4, dtype="f4"))) for _ in range(2)
         )
         self.hole_moments = keep(self._filterable(ctx.texture((size, size), 1, dtype="f4")))
-        self._built = (self.albedo, self.glint_moments, self.spread_moments, self.hole_moments)
+        # Every texel's unit normal and its squares (nx, ny, nx², ny²): the footprint's
+        # distribution of grain normals that the diffuse light is averaged over.
+        self.normal_moments = keep(self._filterable(ctx.texture((size, size), 4, dtype="f4")))
+        self._built = (
+            self.albedo,
+            self.glint_moments,
+            self.spread_moments,
+            self.hole_moments,
+            self.normal_moments,
+        )
         for texture in self._built:
             texture.build_mipmaps()  # the levels, made once; each build refills them
         self._build_fbo = keep(ctx.framebuffer(list(self._built)))
@@ -245,16 +253,6 @@ class SandMaterial:
         texel = np.frombuffer(read_without_gil(self.albedo, level=top), dtype=np.float16)
         texel = texel.astype(np.float32)
         self.average_albedo = texel[:3].copy()
-        # And of the clear grains' slopes: their per-axis variance widens the facets' masking.
-        glint = np.frombuffer(self.glint_moments.read(level=top), dtype=np.float32)
-        spread = np.frombuffer(self.spread_moments.read(level=top), dtype=np.float32)
-        w = float(glint[0])
-        if w > 1e-6:
-            mean = glint[1:3] / w
-            variance = np.maximum(spread[:2] / w - mean * mean, 0.0)
-            self.grain_slope_variance = float(variance.mean())
-        else:
-            self.grain_slope_variance = 0.0
 
     @property
     def close_limit(self) -> float:
@@ -274,6 +272,7 @@ class SandMaterial:
             "u_glint_moments": self.glint_moments,
             "u_spread_moments": self.spread_moments,
             "u_hole_moments": self.hole_moments,
+            "u_normal_moments": self.normal_moments,
             "u_ripple_steep": self.ripple_steep,
             "u_ripple_shallow": self.ripple_shallow,
             "u_detail": self.detail,
@@ -287,7 +286,6 @@ class SandMaterial:
         values = {spec.uniform: self.preset.get(spec.path) for spec in _SHADING_FIELDS}
         values.update(
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
-            u_grain_slope_variance=self.grain_slope_variance,
             u_texture_size=float(self.texture_size),
             u_max_lod=self.max_lod,
             u_close_cutoff=float(self.close_cutoff),

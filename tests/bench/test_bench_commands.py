@@ -97,6 +97,26 @@ def test_render_bench_writes_every_key(tmp_path):
     assert all(v["full"] == 0 for k, v in data["look"].items() if " 30.0 m " in k)
 
 
+@pytest.mark.gl
+@pytest.mark.slow
+def test_appearance_bench_writes_its_sweep_and_contact_sheet(tmp_path):
+    json_path, plot_path = tmp_path / "appearance.json", tmp_path / "sheet.png"
+    result = subprocess.run(
+        [sys.executable, "-m", "sand_editor", "bench", "appearance", "--quick",
+         "--json", str(json_path), "--plot", str(plot_path)],
+        capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "| black-volcanic |" in result.stdout
+    rows = json.loads(json_path.read_text())["rows"]
+    assert {row["preset"] for row in rows} >= {"paper-default", "random-3"}
+    assert len(rows) == 8 * 2 * 5  # presets × suns × distances
+    assert all(row["finite"] and row["clipped"] <= 0.01 for row in rows)
+    from PIL import Image
+
+    assert Image.open(plot_path).size == (3 * 320, 4 * 180)
+
+
 def test_sparkle_fraction_counts_pixels_twice_their_neighbourhood():
     from sand_editor.bench.render import sparkle_fraction, sparkle_mask
 

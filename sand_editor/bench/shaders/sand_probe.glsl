@@ -128,27 +128,35 @@ vec2 probe_glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle
     return glint;
 }
 
-// The ground truth's and "none"'s albedo and mean slope (true); false for other filters.
-bool probe_footprint_surface(Footprint f, out vec3 albedo, out vec2 slope) {
+// The ground truth's and "none"'s albedo, mean slope and normal moments (true); false
+// for other filters.
+bool probe_footprint_surface(Footprint f, out vec3 albedo, out vec2 slope, out vec4 normals) {
     if (u_glint_filter == FILTER_GROUND_TRUTH) {
         int k = max(u_ground_truth_samples, 1);
         albedo = vec3(0.0);
         slope = vec2(0.0);
+        normals = vec4(0.0);
         for (int j = 0; j < k; ++j) {
             for (int i = 0; i < k; ++i) {
                 vec2 o = stratum_offset(i, j, k);
                 vec2 tc = f.tc + o.x * f.dx + o.y * f.dy;
                 albedo += textureLod(u_albedo, tc, 0.0).rgb;
-                slope += textureLod(u_spread_moments, tc, 0.0).zw;
+                vec2 b = textureLod(u_spread_moments, tc, 0.0).zw;
+                slope += b;
+                vec2 n = b / sqrt(1.0 + dot(b, b));
+                normals += vec4(n, n * n);
             }
         }
         albedo /= float(k * k);
         slope /= float(k * k);
+        normals /= float(k * k);
         return true;
     }
     if (u_glint_filter == FILTER_NONE) {
         albedo = textureLod(u_albedo, f.tc, 0.0).rgb;
         slope = textureLod(u_spread_moments, f.tc, 0.0).zw;
+        vec2 n = slope / sqrt(1.0 + dot(slope, slope));
+        normals = vec4(n, n * n);
         return true;
     }
     return false;
