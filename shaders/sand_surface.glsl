@@ -135,6 +135,7 @@ vec3 sand_diffuse_light(vec3 kd, vec3 n, vec3 v, Lighting L) {
 
 const float DIFFUSE_CENTRE = 0.2;
 const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance held
+const float FACING_BAND = 0.15;
 
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
 // their squares), as the grains themselves give it when each is resolved: at four normals
@@ -151,9 +152,15 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
         vec2 p = points[i];
         float len2 = dot(p, p);
         if (len2 > 0.998) p *= sqrt(0.998 / len2);
-        vec3 n = vec3(p, sqrt(max(1.0 - dot(p, p), 0.0)));
-        sum += (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE))
-             * sand_diffuse_light(kd, to_world(n, s), v, L);
+        vec3 n = to_world(vec3(p, sqrt(max(1.0 - dot(p, p), 0.0))), s);
+        // A grain side facing away from the eye sends it nothing; one turning away fades out
+        // over a band of n·v rather than stopping along a line across the frame (d'Eon's BRDF
+        // does not vanish at grazing views).
+        float facing = dot(n, v);
+        float seen = smoothstep(-FACING_BAND, FACING_BAND, facing);
+        if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
+        sum += (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE)) * seen
+             * sand_diffuse_light(kd, n, v, L);
     }
     return sum;
 }
