@@ -123,16 +123,6 @@ vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
     return u_transmission * albedo * irradiance * forward / PI;
 }
 
-// Everything but the glints' specular light, for one shading normal n and albedo kd.
-vec3 sand_diffuse_light(vec3 kd, vec3 n, vec3 v, Lighting L) {
-    vec3 radiance = sand_sky(kd, n, L.sky_irradiance);
-    radiance += sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
-    radiance += sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance);
-    radiance += grain_transmission(kd, L.sun_direction, v, L.sun_radiance);
-    radiance += grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
-    return radiance;
-}
-
 const float DIFFUSE_CENTRE = 0.2;
 const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance held
 const float FACING_BAND = 0.15;
@@ -160,9 +150,15 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
         float seen = smoothstep(-FACING_BAND, FACING_BAND, facing);
         if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
         sum += (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE)) * seen
-             * sand_diffuse_light(kd, n, v, L);
+             * (sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance)
+                + sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance));
     }
-    return sum;
+    // The sky's light is linear in the normal, and the light through grain edges does not
+    // depend on it: both once, for the mean normal.
+    vec3 mean_normal = to_world(vec3(m, sqrt(max(1.0 - dot(m, m), 0.0))), s);
+    return sum + sand_sky(kd, mean_normal, L.sky_irradiance)
+         + grain_transmission(kd, L.sun_direction, v, L.sun_radiance)
+         + grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
 }
 
 struct Shaded {
