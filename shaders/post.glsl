@@ -3,7 +3,8 @@
 // Post-processing of the HDR scene, one program per define: BLOOM_DOWNSAMPLE (13 taps),
 // BLOOM_UPSAMPLE (3×3 tent, added onto the next larger level), and RESOLVE (bloom mix, exposure,
 // ACES tone mapping and sRGB encoding into the caller's framebuffer, or raw values for debug
-// views). Drawn with the fullscreen triangle of fullscreen.vert.
+// views), and METER (the log of the scene's luminance, for the exposure's log-average). Drawn
+// with the fullscreen triangle of fullscreen.vert.
 
 uniform sampler2D u_source;
 uniform vec2 u_source_texel;   // 1 / size of u_source
@@ -53,6 +54,15 @@ void main() {
     colour += texture(u_source, uv + vec2(-t.x, -t.y)).rgb + texture(u_source, uv + vec2(t.x, -t.y)).rgb
             + texture(u_source, uv + vec2(-t.x, t.y)).rgb + texture(u_source, uv + vec2(t.x, t.y)).rgb;
     out_colour = vec4(colour / 16.0, 1.0);
+}
+
+#elif defined METER
+
+// Each texel of the small metering target: the log of the mean luminance of the scene under
+// it (a bilinear tap of the scene's smallest bloom level that covers it).
+void main() {
+    float luminance = dot(texture(u_source, output_uv()).rgb, vec3(0.2126, 0.7152, 0.0722));
+    out_colour = vec4(log(max(luminance, 1e-8)), 0.0, 0.0, 1.0);
 }
 
 #elif defined RESOLVE

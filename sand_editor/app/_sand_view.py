@@ -82,6 +82,8 @@ class SandView(QOpenGLWidget):
         self.time_hours = 10.0
         self.mode = "full"
         self.show_sphere = False
+        self.exposure: float | None = None  # None: metered and adapted, as an eye does
+        self._band_exposure: float | None = None
         self.moving_scale = 0.5
         self._preset = preset
         self._pending_grains: SandTextures | None = None
@@ -129,7 +131,7 @@ class SandView(QOpenGLWidget):
     # -- state -----------------------------------------------------------------------------------
 
     def set_view(self, **values) -> None:
-        """Set any of distance_m, pitch_deg, heading_deg, time_hours, mode, show_sphere."""
+        """Set distance_m, pitch_deg, heading_deg, time_hours, mode, show_sphere or exposure."""
         for name, value in values.items():
             if not hasattr(self, name):
                 raise AttributeError(name)
@@ -192,6 +194,7 @@ class SandView(QOpenGLWidget):
         try:
             gl.ctx = moderngl.create_context()
             gl.renderer = SandRenderer(gl.ctx)
+            gl.renderer.adapt_over_time = True
             gl.upscale = fullscreen_program(gl.ctx, "upscale.frag")
         except Exception as error:
             self._fail(f"Cannot start the 3D view: {error}")
@@ -287,13 +290,14 @@ class SandView(QOpenGLWidget):
             heading_deg=self.heading_deg,
         )
 
-    def _render(self, target, camera, viewport) -> dict:
+    def _render(self, target, camera, viewport, exposure=None) -> dict:
         return self.renderer.render(
             target,
             camera,
             sky_at(self.time_hours),
             self.mode,
             viewport=viewport,
+            exposure=self.exposure if exposure is None else exposure,
             show_sphere=self.show_sphere,
         )
 
@@ -302,6 +306,7 @@ class SandView(QOpenGLWidget):
         low = (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
         start = time.perf_counter()
         timings = self._render(self.gl.target("moving", *low), camera, (0, 0, *low))
+        self._band_exposure = timings["exposure"]  # metered band by band, each would differ
         finish_without_gil()
         self._pixel_ms = (time.perf_counter() - start) * 1e3 / (low[0] * low[1])
         timings.update(scale=scale, refined=0.0)
@@ -324,7 +329,7 @@ class SandView(QOpenGLWidget):
             self._refine_ms, self._bands = 0.0, 0
         band = band_camera(camera, first, first + rows, height)
         start = time.perf_counter()
-        timings = self._render(full, band, (0, first, width, rows))
+        timings = self._render(full, band, (0, first, width, rows), self._band_exposure)
         finish_without_gil()
         self._pixel_ms = (time.perf_counter() - start) * 1e3 / (width * rows)
         self._refined_rows = first + rows

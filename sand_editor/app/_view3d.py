@@ -49,6 +49,7 @@ _VIEW_FIELDS = {
     "hours": "time_hours",
     "mode": "mode",
     "show_sphere": "show_sphere",
+    "exposure": "exposure",
 }
 
 

@@ -7,7 +7,10 @@ cut-off that would make them pop in and out.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import moderngl
+import numpy as np
 
 from sand_editor.gl import (
     draw_fullscreen,
@@ -21,6 +24,7 @@ from sand_editor.gl import (
 BLOOM_LEVELS = 5
 DEFAULT_BLOOM_STRENGTH = 0.04
 UPSAMPLE_RADIUS = 1.0  # source texels between the tent's taps
+METER_SIZE = 16  # texels per side of the exposure's metering target
 
 
 class PostChain:
@@ -36,6 +40,10 @@ class PostChain:
         self._downsample = fullscreen_program(ctx, "post.glsl", {"BLOOM_DOWNSAMPLE": 1})
         self._upsample = fullscreen_program(ctx, "post.glsl", {"BLOOM_UPSAMPLE": 1})
         self._resolve = fullscreen_program(ctx, "post.glsl", {"RESOLVE": 1})
+        self._meter = fullscreen_program(ctx, "post.glsl", {"METER": 1})
+        self._meter_texture = ctx.texture((METER_SIZE, METER_SIZE), 1, dtype="f4")
+        self._meter_texture.build_mipmaps()
+        self._meter_fbo = ctx.framebuffer([self._meter_texture])
 
     def resize(self, width: int, height: int) -> None:
         """Reallocate the targets for a ``width`` × ``height`` frame (no-op when unchanged)."""
@@ -80,18 +88,22 @@ class PostChain:
         self,
         target_fbo: moderngl.Framebuffer,
         viewport: tuple[int, int, int, int],
-        exposure: float,
+        exposure: float | Callable[[float], float],
         bloom_strength: float = DEFAULT_BLOOM_STRENGTH,
         tone_map: bool = True,
-    ) -> None:
+    ) -> float:
         """Resolve the scene into ``viewport`` of ``target_fbo``: bloom, exposure, ACES and sRGB
         encoding; with ``tone_map=False`` the scene's values are written as they are, clamped to
-        [0, 1] (debug views)."""
+        [0, 1] (debug views). ``exposure`` may be a function of the scene's log-average
+        luminance, metered first. Returns the exposure used."""
         if self.scene_framebuffer is None:
             raise RuntimeError("PostChain.finish before resize")
         use_bloom = tone_map and bloom_strength > 0
-        if use_bloom:
+        metered = tone_map and callable(exposure)
+        if use_bloom or metered:
             self.bloom()
+        if callable(exposure):
+            exposure = exposure(self.scene_luminance()) if metered else exposure(0.0)
         ctx = self.ctx
         program = self._resolve
         bloom_texture = self._levels[0][0]
@@ -107,6 +119,17 @@ class PostChain:
                 self._pass(program, self.scene_texture, target_fbo, viewport[2:], viewport[:2])
         finally:
             target_fbo.viewport = saved_viewport
+        return float(exposure)
+
+    def scene_luminance(self) -> float:
+        """Log-average luminance of the scene (after ``bloom``, whose smallest level it reads)."""
+        source = self._levels[-1][0]
+        with render_state(self.ctx):
+            self._pass(self._meter, source, self._meter_fbo, (METER_SIZE, METER_SIZE))
+        self._meter_texture.build_mipmaps()
+        top = int(np.log2(METER_SIZE))
+        log_mean = float(np.frombuffer(self._meter_texture.read(level=top), dtype=np.float32)[0])
+        return float(np.exp(log_mean)) if np.isfinite(log_mean) else 0.0
 
     def _pass(self, program, source, framebuffer, size, offset=(0, 0), blend=False) -> None:
         source.use(location=0)
@@ -130,5 +153,7 @@ class PostChain:
 
     def release(self) -> None:
         self._release_targets()
-        for program in (self._downsample, self._upsample, self._resolve):
+        for program in (self._downsample, self._upsample, self._resolve, self._meter):
             release_program(program)
+        self._meter_fbo.release()
+        self._meter_texture.release()

@@ -20,6 +20,7 @@ from sand_editor.gl import (
     set_uniform,
 )
 from sand_editor.render.camera import Camera
+from sand_editor.render.exposure import EyeAdaptation, light_exposure, metered_exposure
 from sand_editor.render.material import surface_defines
 from sand_editor.render.modes import check_mode, mode_index
 from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain
@@ -31,22 +32,13 @@ GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the ho
 SUN_ANGULAR_RADIUS = math.radians(0.6)  # twice the real sun: readable on small previews
 MOON_ANGULAR_RADIUS = math.radians(0.6)
 TERRAIN_SEGMENTS = 96
-# Exposure ∝ (scene light)^−EXPOSURE_ADAPTATION: partial adaptation keeps night darker than day.
-EXPOSURE_ADAPTATION = 0.5
-EXPOSURE_KEY = 2.8
 _VERTEX_FORMAT = "3f 3f 3f 2f"
 _VERTEX_ATTRIBUTES = ("a_position", "a_normal", "a_tangent", "a_uv")
 
 
 def auto_exposure(sky: SkyState) -> float:
-    """Exposure for the light on an upward surface: sun and moon on it, plus the sky."""
-    light = (
-        sky.sun_radiance * max(float(sky.sun_direction[1]), 0.0)
-        + sky.moon_radiance * max(float(sky.moon_direction[1]), 0.0)
-        + sky.sky_irradiance
-    )
-    luminance = float(np.dot(light, (0.2126, 0.7152, 0.0722)))
-    return float(np.clip(EXPOSURE_KEY / max(luminance, 1e-6) ** EXPOSURE_ADAPTATION, 1e-2, 1e3))
+    """Exposure for the light alone (see ``render.exposure``)."""
+    return light_exposure(sky)
 
 
 class _Mesh:
@@ -98,6 +90,11 @@ class SandRenderer:
         self.show_sphere = False
         self.bloom_strength = DEFAULT_BLOOM_STRENGTH
         self.post = PostChain(ctx)
+        # Views that run on (the editor's, the headset's) adapt over time, as an eye does;
+        # otherwise each frame takes its metered exposure at once, the same on every run.
+        self.adapt_over_time = False
+        self.adaptation = EyeAdaptation()
+        self._last_metered: float | None = None
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
         # shades what lies within the material's close range, the far one only the far term.
         self._owned = GLObjects()
@@ -153,13 +150,14 @@ class SandRenderer:
 
         ``scene`` is what ``prepare_frame`` chose for this frame; without it the scene is chosen
         from ``camera`` (one view, as in the editor). Debug modes (``blend``, ``normals``,
-        ``mip``) write the material's values unexposed and unblended, over black. Returns CPU
+        ``mip``) write the material's values unexposed and unblended, over black. Without
+        ``exposure`` the frame is metered (and with ``adapt_over_time`` the eye's adaptation
+        follows it, the first frame jumping to it); a number fixes it. Returns CPU
         milliseconds per stage and the exposure used.
         """
         check_mode(mode)
         debug = mode in DEBUG_MODES
         viewport = tuple(int(v) for v in (viewport or (0, 0, *target.size)))
-        exposure = auto_exposure(sky) if exposure is None else float(exposure)
         ctx = self.ctx
         times = {}
         start = time.perf_counter()
@@ -179,7 +177,18 @@ class SandRenderer:
                 for mesh in (scene.terrain, *scene.objects):
                     self._draw(mesh, camera)
             times["surface_ms"] = _lap(start) - times["sky_ms"]
-        self.post.finish(
+        if exposure is None:
+            # Metered from this frame's scene and adapted over time, as an eye does.
+            now = time.perf_counter()
+            last, self._last_metered = self._last_metered, now
+            dt = now - last if self.adapt_over_time and last is not None else None
+
+            def exposure(scene_luminance: float) -> float:
+                if debug or mode == "glints":  # glints alone would meter as a black scene
+                    return light_exposure(sky)
+                return self.adaptation.step(metered_exposure(sky, scene_luminance), dt)
+
+        exposure = self.post.finish(
             target,
             viewport,
             exposure,

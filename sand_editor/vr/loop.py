@@ -75,6 +75,7 @@ class FrameLoop:
             mode=options.mode,
         )
         self.renderer = SandRenderer(self.ctx)
+        self.renderer.adapt_over_time = True
         self.workbench = Workbench(lambda x, z: float(self.renderer.terrain.height(x, z)))
         for mesh, origin in self.workbench.sand_objects():
             self.renderer.add_object(mesh, origin)
@@ -213,12 +214,14 @@ class FrameLoop:
         screenshot = self._wants_screenshot()
         images = []
         eye_ms = []
+        exposure = None  # metered by the first eye; the second keeps it, or the eyes would differ
         for index, camera in enumerate(cameras):
             start = time.perf_counter()
             with self.backend.eye_target(index) as (target, viewport):
-                self.renderer.render(
-                    target, camera, sky, self.controls.mode, viewport=viewport, scene=scene
-                )
+                mode = self.controls.mode
+                exposure = self.renderer.render(
+                    target, camera, sky, mode, viewport=viewport, scene=scene, exposure=exposure
+                )["exposure"]
                 target.use()
                 self.workbench.draw(
                     self.ctx, camera, viewport, self.controls, self.presets[self._index()][0], rays

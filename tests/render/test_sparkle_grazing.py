@@ -26,6 +26,7 @@ def _longest_flat_run(row: np.ndarray) -> int:
 
 def test_grazing_sparkles_toward_the_low_sun_are_points_not_blocks(gl_ctx):
     from sand_editor.render.camera import camera_at_distance
+    from sand_editor.render.renderer import auto_exposure
     from sand_editor.render.sky import parse_time, sky_at
 
     with renderer_with_material(gl_ctx, texture_size=1024) as renderer:
@@ -33,7 +34,12 @@ def test_grazing_sparkles_toward_the_low_sun_are_points_not_blocks(gl_ctx):
         camera = camera_at_distance(
             0.3, 35.0, 480 / 270, ground_height=lambda x, z: float(terrain.height(x, z))
         )
-        image = renderer.render_to_array(480, 270, camera, sky_at(parse_time("16:30")), "glints")
+        sky = sky_at(parse_time("16:30"))
+        # The light's exposure, not one metered on a frame of glints alone (which would
+        # saturate every sparkle to white and hide how each is drawn).
+        image = renderer.render_to_array(
+            480, 270, camera, sky, "glints", exposure=auto_exposure(sky)
+        )
         hdr = np.frombuffer(renderer.post.scene_texture.read(), dtype=np.float16)
     assert np.isfinite(hdr).all(), "no NaN or inf in the HDR frame, grazing glints included"
     band = image[:70].astype(np.int32)  # the far sand, seen at a grazing angle

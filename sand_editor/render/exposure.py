@@ -1,0 +1,74 @@
+"""Exposure that adapts as an eye does: to the light, and partly to what the scene sends back.
+
+The light sets the base (a surface facing up under the sun, the moon and the sky), with partial
+adaptation so that night stays darker than day. The scene then moves it part of the way
+towards its own brightness: the log-average luminance of the HDR frame against that of a
+mid-grey sand under the same light. Only part of the way, so that black sand still reads as
+black and white sand as white, each with its detail; bright sparkles barely move a log-average.
+Over time the exposure follows its target as an eye adapts, in about half a second.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+LIGHT_ADAPTATION = 0.5  # exposure ∝ (light)^−this: partial adaptation keeps night darker
+EXPOSURE_KEY = 4.8  # a mid-grey sand under the noon sun shows as about the reference's
+SCENE_ADAPTATION = 0.2  # and ∝ (scene / mid-grey)^−this: a fifth of the way, on a log scale
+MID_GREY = 0.18
+MAX_SCENE_FACTOR = 4.0  # the scene moves the exposure by at most this, either way
+ADAPT_SECONDS = 0.5  # time constant of the eye's adaptation
+MIN_EXPOSURE, MAX_EXPOSURE = 1e-2, 1e3
+
+
+def light_luminance(sky) -> float:
+    """Luminance of the light on an upward surface: sun and moon on it, plus the sky."""
+    light = (
+        sky.sun_radiance * max(float(sky.sun_direction[1]), 0.0)
+        + sky.moon_radiance * max(float(sky.moon_direction[1]), 0.0)
+        + sky.sky_irradiance
+    )
+    return float(np.dot(light, LUMINANCE))
+
+
+def light_exposure(sky) -> float:
+    """Exposure for the light alone."""
+    luminance = light_luminance(sky)
+    exposure = EXPOSURE_KEY / max(luminance, 1e-6) ** LIGHT_ADAPTATION
+    return float(np.clip(exposure, MIN_EXPOSURE, MAX_EXPOSURE))
+
+
+def metered_exposure(sky, scene_luminance: float) -> float:
+    """Exposure for the light, moved part of the way towards the scene's log-average
+    luminance (``scene_luminance``, HDR) against a mid-grey sand's under that light."""
+    base = light_exposure(sky)
+    grey = MID_GREY / math.pi * light_luminance(sky)
+    if not (math.isfinite(scene_luminance) and scene_luminance > 0.0 and grey > 0.0):
+        return base
+    factor = (grey / scene_luminance) ** SCENE_ADAPTATION
+    factor = min(max(factor, 1.0 / MAX_SCENE_FACTOR), MAX_SCENE_FACTOR)
+    return float(np.clip(base * factor, MIN_EXPOSURE, MAX_EXPOSURE))
+
+
+class EyeAdaptation:
+    """The exposure in use, following its target with a time constant (in log exposure)."""
+
+    def __init__(self, seconds: float = ADAPT_SECONDS) -> None:
+        self.seconds = seconds
+        self.exposure: float | None = None
+
+    def step(self, target: float, dt: float | None) -> float:
+        """Move towards ``target`` over ``dt`` seconds; the first step (or dt None) jumps."""
+        if self.exposure is None or dt is None or not math.isfinite(dt) or dt < 0:
+            self.exposure = float(target)
+            return self.exposure
+        keep = math.exp(-min(dt, 60.0) / self.seconds)
+        log_exposure = keep * math.log(self.exposure) + (1.0 - keep) * math.log(target)
+        self.exposure = math.exp(log_exposure)
+        return self.exposure
+
+    def reset(self) -> None:
+        self.exposure = None
