@@ -101,6 +101,14 @@ class View3DPanel(QWidget):
             self.mode_combo.setItemData(
                 self.mode_combo.count() - 1, MODE_HELP[mode], Qt.ItemDataRole.ToolTipRole
             )
+        self.exposure = QDoubleSpinBox(objectName="view3d-exposure")
+        self.exposure.setRange(0.0, 1000.0)
+        self.exposure.setDecimals(2)
+        self.exposure.setStepType(QDoubleSpinBox.StepType.AdaptiveDecimalStepType)
+        self.exposure.setSpecialValueText("auto")
+        self.exposure.setToolTip(
+            "Exposure: auto adapts to the light and the scene as an eye does; a number fixes it."
+        )
         self.sphere = QCheckBox("Sphere", objectName="view3d-sphere")
         self.sphere.setToolTip("Put a sand-covered sphere beside the point in view.")
         self.status = QLabel("—", objectName="view3d-status")
@@ -119,6 +127,7 @@ class View3DPanel(QWidget):
             ("", self.time_label, 0),
             ("Day speed", self.day_speed, 0),
             ("Mode", self.mode_combo, 0),
+            ("Exposure", self.exposure, 0),
             ("", self.sphere, 0),
         )
         for row, items in enumerate((row1, row2)):
@@ -159,6 +168,9 @@ class View3DPanel(QWidget):
             lambda: self._set(mode=self.mode_combo.currentData())
         )
         self.sphere.toggled.connect(lambda on: self._set(show_sphere=on))
+        self.exposure.valueChanged.connect(
+            lambda value: self._set(exposure=float(value) if value > 0.0 else None)
+        )
         self.view.orbited.connect(self._orbit)
         self.view.zoomed.connect(
             lambda factor: self.set_distance(self.view_model.state.distance_m * factor)
@@ -206,6 +218,9 @@ class View3DPanel(QWidget):
         if names & {"show_sphere"}:
             with QSignalBlocker(self.sphere):
                 self.sphere.setChecked(state.show_sphere)
+        if names & {"exposure"}:
+            with QSignalBlocker(self.exposure):
+                self.exposure.setValue(0.0 if state.exposure is None else state.exposure)
         if names & {"distance_m"}:
             with QSignalBlocker(self.distance_slider), QSignalBlocker(self.distance_spin):
                 self.distance_slider.setValue(_step_of_distance(state.distance_m))

@@ -85,6 +85,22 @@ def test_shading_changes_keep_the_grains_and_generation_changes_replace_them(pan
     assert panel.window().preview.textures.size == panel.window().preview.preview_size
 
 
+def test_a_fixed_exposure_overrides_the_metered_one_and_auto_restores_it(panel, qtbot):
+    panel.time_slider.setValue(12 * 60)
+    metered = frame(panel)
+    panel.exposure.setValue(0.05)
+    assert panel.view_model.state.exposure == 0.05 and panel.view.exposure == 0.05
+    qtbot.waitUntil(lambda: panel.view.last_timings["exposure"] == 0.05, timeout=TIMEOUT_MS)
+    dim = frame(panel)
+    assert dim.mean() < 0.5 * metered.mean()
+    panel.exposure.setValue(0.0)
+    assert panel.exposure.text() == "auto" and panel.view.exposure is None
+    qtbot.waitUntil(lambda: panel.view.last_timings["exposure"] != 0.05, timeout=TIMEOUT_MS)
+    # The view model shows a fixed exposure set elsewhere (the settings, the VR link).
+    panel.view_model.update("test", exposure=2.0)
+    assert panel.exposure.value() == 2.0
+
+
 def test_blend_mode_changes_the_image(panel):
     full = frame(panel)
     panel.mode_combo.setCurrentText("blend")
