@@ -364,7 +364,7 @@ def test_a_long_session_of_drags_keeps_the_link_flat(vr, window, qtbot):
         # The model's change signal, as a drag emits it; reset keeps the undo history (not what
         # is measured here) empty.
         for step in range(100):
-            value = 5.0 + (round_ * 100 + step) % 50
+            value = 0.05 + 0.01 * ((round_ * 100 + step) % 50)
             model.reset(model.preset.replace(**{"shading.facet_roughness": value}))
             qtbot.wait(5)
         qtbot.waitUntil(lambda: vr.link.last_sent_preset == window.model.preset)
