@@ -4,30 +4,31 @@
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
 const float MIN_FACING = 0.05;       // least n·v of a shading normal
 
-// d'Eon (2021), the fitted form of the BRDF of a half space of Lambertian spheres, for one
-// channel: kd is the diffuse colour, c the particles' single-scattering albedo mapped from it.
-float lambert_sphere_brdf(float kd, float ui, float uo, float cos_io) {
-    float c = (1.0 - pow(1.0 - kd, 2.73556)) / (1.0 - 0.184096 * pow(1.0 - kd, 2.48423));
+// d'Eon (2021), the fitted form of the BRDF of a half space of Lambertian spheres, per unit
+// albedo at the tile's average albedo kd̄, every channel at once. What depends on kd̄ alone — c,
+// the particles' single-scattering albedo mapped from it, and the multiple-scattering floor
+// (1.94208·kd̄)^1.85432 — is computed once per material (SandMaterial.bind) rather than per
+// pixel, normal and light.
+uniform vec3 u_sphere_c;
+uniform vec3 u_sphere_floor;
+uniform vec3 u_sphere_inverse_albedo;  // 1 / kd̄
+
+vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v) {
+    float ui = dot(n, l), uo = dot(n, v);
+    if (ui <= 0.0 || uo <= 0.0) return vec3(0.0);
+    float cos_io = dot(l, v);
     float u = clamp(-cos_io, -1.0, 1.0);
     float phase = 2.0 * (sqrt(max(1.0 - u * u, 0.0)) - u * acos(u)) / (3.0 * PI * PI);
-    float single = c * phase / max(ui + uo, 1e-4);
+    float single = phase / max(ui + uo, 1e-4);
     float s = sqrt(max((1.0 - ui * ui) * (1.0 - uo * uo), 0.0));
     // Relative azimuth from cos(io) = ui·uo + s·cos φ; at s → 0 the azimuth is moot.
     float cos_phi = s > 1e-5 ? clamp((cos_io - ui * uo) / s, -1.0, 1.0) : 1.0;
     float s_safe = max(s, 1e-5);
-    float multiple = ((acos(cos_phi) + sqrt(ui * uo)) * (c - 0.249978))
-                   / (4.50996 * (acos(min(s_safe, 1.0)) / s_safe + 0.113706))
-                   + pow(max(1.94208 * kd, 0.0), 1.85432);
-    return max(0.995917 * single + 0.0684744 * multiple, 0.0);
-}
-
-vec3 lambert_sphere(vec3 kd, vec3 n, vec3 l, vec3 v) {
-    float ui = dot(n, l), uo = dot(n, v);
-    if (ui <= 0.0 || uo <= 0.0) return vec3(0.0);
-    float cos_io = dot(l, v);
-    // Every channel with its own albedo.
-    return vec3(lambert_sphere_brdf(kd.r, ui, uo, cos_io), lambert_sphere_brdf(kd.g, ui, uo, cos_io),
-                lambert_sphere_brdf(kd.b, ui, uo, cos_io));
+    float spread = (acos(cos_phi) + sqrt(ui * uo))
+                 / (4.50996 * (acos(min(s_safe, 1.0)) / s_safe + 0.113706));
+    vec3 multiple = spread * (u_sphere_c - 0.249978) + u_sphere_floor;
+    vec3 brdf = max(0.995917 * u_sphere_c * single + 0.0684744 * multiple, 0.0);
+    return brdf * u_sphere_inverse_albedo;
 }
 
 // The macro normal with ripples across the dune slope and fine detail.

@@ -103,8 +103,7 @@ void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope, out vec4 no
 vec3 sand_diffuse(vec3 kd, vec3 n, vec3 l, vec3 v, vec3 irradiance) {
     float fs = clamp(u_scattering * u_sss, 0.0, 1.0);
     float fe = exp(-u_absorption * u_sss);
-    vec3 mean_kd = clamp(u_average_albedo, 1e-4, 1.0);
-    vec3 per_albedo = lambert_sphere(mean_kd, n, l, v) / mean_kd;
+    vec3 per_albedo = sphere_brdf_per_albedo(n, l, v);
     vec3 direct = kd * ((1.0 - fs) * per_albedo * max(dot(n, l), 0.0) + fs / PI);
     return fe * direct * irradiance;
 }
@@ -149,9 +148,15 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
         float facing = dot(n, v);
         float seen = smoothstep(-FACING_BAND, FACING_BAND, facing);
         if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
-        sum += (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE)) * seen
-             * (sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance)
-                + sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance));
+        vec3 direct = vec3(0.0);
+        // Lights that are off (below the horizon) are skipped: the same branch for every pixel.
+        if (L.sun_radiance != vec3(0.0)) {
+            direct += sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
+        }
+        if (L.moon_radiance != vec3(0.0)) {
+            direct += sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance);
+        }
+        sum += (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE)) * seen * direct;
     }
     // The sky's light is linear in the normal, and the light through grain edges does not
     // depend on it: both once, for the mean normal.

@@ -49,6 +49,19 @@ SHADER_DEFINES = {
 }
 
 
+def sphere_constants(average_albedo) -> dict:
+    """What d'Eon's Lambertian-sphere BRDF needs of the tile's average albedo alone (see
+    shaders/sand_far.glsl), once per material rather than per pixel."""
+    kd = np.clip(np.asarray(average_albedo, dtype=np.float64), 1e-4, 1.0)
+    c = (1.0 - (1.0 - kd) ** 2.73556) / (1.0 - 0.184096 * (1.0 - kd) ** 2.48423)
+    floor = (1.94208 * kd) ** 1.85432
+    return {
+        "u_sphere_c": tuple(float(x) for x in c),
+        "u_sphere_floor": tuple(float(x) for x in floor),
+        "u_sphere_inverse_albedo": tuple(float(x) for x in 1.0 / kd),
+    }
+
+
 def surface_defines(**extra) -> dict:
     """The #defines of a program that includes shaders/sand_surface.glsl."""
     return {**mode_defines(), **SHADER_DEFINES, **extra}
@@ -286,6 +299,7 @@ class SandMaterial:
         values = {spec.uniform: self.preset.get(spec.path) for spec in _SHADING_FIELDS}
         values.update(
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
+            **sphere_constants(self.average_albedo),
             u_texture_size=float(self.texture_size),
             u_max_lod=self.max_lod,
             u_close_cutoff=float(self.close_cutoff),
