@@ -13,10 +13,10 @@ import moderngl
 import numpy as np
 
 from sand_editor.gl import (
+    GLObjects,
     draw_fullscreen,
     drawing_into,
     fullscreen_program,
-    release_program,
     render_state,
     set_uniform,
 )
@@ -37,13 +37,16 @@ class PostChain:
         self.depth_texture: moderngl.Texture | None = None
         self.scene_framebuffer: moderngl.Framebuffer | None = None
         self._levels: list[tuple[moderngl.Texture, moderngl.Framebuffer]] = []
-        self._downsample = fullscreen_program(ctx, "post.glsl", {"BLOOM_DOWNSAMPLE": 1})
-        self._upsample = fullscreen_program(ctx, "post.glsl", {"BLOOM_UPSAMPLE": 1})
-        self._resolve = fullscreen_program(ctx, "post.glsl", {"RESOLVE": 1})
-        self._meter = fullscreen_program(ctx, "post.glsl", {"METER": 1})
-        self._meter_texture = ctx.texture((METER_SIZE, METER_SIZE), 1, dtype="f4")
+        # What lives as long as the chain; the size-dependent targets are made by resize().
+        self._owned = GLObjects()
+        keep = self._owned.keep
+        self._downsample = keep(fullscreen_program(ctx, "post.glsl", {"BLOOM_DOWNSAMPLE": 1}))
+        self._upsample = keep(fullscreen_program(ctx, "post.glsl", {"BLOOM_UPSAMPLE": 1}))
+        self._resolve = keep(fullscreen_program(ctx, "post.glsl", {"RESOLVE": 1}))
+        self._meter = keep(fullscreen_program(ctx, "post.glsl", {"METER": 1}))
+        self._meter_texture = keep(ctx.texture((METER_SIZE, METER_SIZE), 1, dtype="f4"))
         self._meter_texture.build_mipmaps()
-        self._meter_fbo = ctx.framebuffer([self._meter_texture])
+        self._meter_fbo = keep(ctx.framebuffer([self._meter_texture]))
 
     def resize(self, width: int, height: int) -> None:
         """Reallocate the targets for a ``width`` × ``height`` frame (no-op when unchanged)."""
@@ -153,7 +156,4 @@ class PostChain:
 
     def release(self) -> None:
         self._release_targets()
-        for program in (self._downsample, self._upsample, self._resolve, self._meter):
-            release_program(program)
-        self._meter_fbo.release()
-        self._meter_texture.release()
+        self._owned.release()
