@@ -104,7 +104,7 @@ class Bench:
         self.ground_truth_samples = 4 if quick else 8  # K×K for the ground truth's albedo
 
     def _probe_exposure(self) -> float:
-        from sand_editor.render.renderer import auto_exposure
+        from sand_editor.render.exposure import light_exposure
         from sand_editor.render.sky import sky_at
 
         sky = dataclasses.replace(
@@ -114,7 +114,7 @@ class Bench:
             moon_radiance=np.zeros(3),
             sky_irradiance=self.probe.sky_irradiance,
         )
-        return auto_exposure(sky)
+        return light_exposure(sky)
 
     def camera(self, distance: float, view: int = 0, shift=(0.0, 0.0)):
         from sand_editor.render.camera import Camera, camera_at_distance

@@ -36,11 +36,6 @@ _VERTEX_FORMAT = "3f 3f 3f 2f"
 _VERTEX_ATTRIBUTES = ("a_position", "a_normal", "a_tangent", "a_uv")
 
 
-def auto_exposure(sky: SkyState) -> float:
-    """Exposure for the light alone (see ``render.exposure``)."""
-    return light_exposure(sky)
-
-
 class _Mesh:
     """Vertex arrays of a mesh dict (``position`` relative to ``origin``), one per program."""
 

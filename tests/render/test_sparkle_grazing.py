@@ -26,7 +26,7 @@ def _longest_flat_run(row: np.ndarray) -> int:
 
 def test_grazing_sparkles_toward_the_low_sun_are_points_not_blocks(gl_ctx):
     from sand_editor.render.camera import camera_at_distance
-    from sand_editor.render.renderer import auto_exposure
+    from sand_editor.render.exposure import light_exposure
     from sand_editor.render.sky import parse_time, sky_at
 
     with renderer_with_material(gl_ctx, texture_size=1024) as renderer:
@@ -38,7 +38,7 @@ def test_grazing_sparkles_toward_the_low_sun_are_points_not_blocks(gl_ctx):
         # The light's exposure, not one metered on a frame of glints alone (which would
         # saturate every sparkle to white and hide how each is drawn).
         image = renderer.render_to_array(
-            480, 270, camera, sky, "glints", exposure=auto_exposure(sky)
+            480, 270, camera, sky, "glints", exposure=light_exposure(sky)
         )
         hdr = np.frombuffer(renderer.post.scene_texture.read(), dtype=np.float16)
     assert np.isfinite(hdr).all(), "no NaN or inf in the HDR frame, grazing glints included"
