@@ -30,6 +30,7 @@ import numpy as np
 from sand_editor.generator import generate
 from sand_editor.generator.noise import NoiseConstants
 from sand_editor.preset import Preset
+from sand_editor.render.material import sphere_albedo_terms
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 SUN_DIRECTION = np.array([0.0, 0.6, -0.8])  # towards the sun: the probe's
@@ -67,7 +68,7 @@ def _mitsuba():
 def _deon(kd: float, ui: float, uo: float, cos_io: float) -> float:
     """d'Eon (2021), fitted BRDF of a half space of Lambertian spheres, one channel (the
     material's sand_far.glsl, written again here on plain floats)."""
-    c = (1.0 - (1.0 - kd) ** 2.73556) / (1.0 - 0.184096 * (1.0 - kd) ** 2.48423)
+    c, floor = sphere_albedo_terms(kd)
     u = min(max(-cos_io, -1.0), 1.0)
     phase = 2.0 * (math.sqrt(max(1.0 - u * u, 0.0)) - u * math.acos(u)) / (3.0 * math.pi**2)
     single = c * phase / max(ui + uo, 1e-4)
@@ -76,7 +77,7 @@ def _deon(kd: float, ui: float, uo: float, cos_io: float) -> float:
     s_safe = max(s, 1e-5)
     multiple = (math.acos(cos_phi) + math.sqrt(ui * uo)) * (c - 0.249978) / (
         4.50996 * (math.acos(min(s_safe, 1.0)) / s_safe + 0.113706)
-    ) + max(1.94208 * kd, 0.0) ** 1.85432
+    ) + floor
     return max(0.995917 * single + 0.0684744 * multiple, 0.0)
 
 

@@ -49,12 +49,18 @@ SHADER_DEFINES = {
 }
 
 
-def sphere_constants(average_albedo) -> dict:
-    """What d'Eon's Lambertian-sphere BRDF needs of the tile's average albedo alone (see
-    shaders/sand_far.glsl), once per material rather than per pixel."""
-    kd = np.clip(np.asarray(average_albedo, dtype=np.float64), 1e-4, 1.0)
+def sphere_albedo_terms(kd):
+    """What d'Eon's (2021) Lambertian-sphere BRDF takes of a diffuse albedo alone: the
+    particles' single-scattering albedo c and the multiple-scattering floor."""
     c = (1.0 - (1.0 - kd) ** 2.73556) / (1.0 - 0.184096 * (1.0 - kd) ** 2.48423)
-    floor = (1.94208 * kd) ** 1.85432
+    return c, (1.94208 * kd) ** 1.85432
+
+
+def sphere_constants(average_albedo) -> dict:
+    """Those terms of the tile's average albedo, as the uniforms of shaders/sand_far.glsl: once
+    per material rather than per pixel."""
+    kd = np.clip(np.asarray(average_albedo, dtype=np.float64), 1e-4, 1.0)
+    c, floor = sphere_albedo_terms(kd)
     return {
         "u_sphere_c": tuple(float(x) for x in c),
         "u_sphere_floor": tuple(float(x) for x in floor),
