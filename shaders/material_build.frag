@@ -3,7 +3,7 @@
 // Builds level 0 of the sand material's filterable textures from the generated grains. Every
 // quantity written here is linear in what the renderer averages, so the GPU's mipmaps (box
 // averages) stay exact footprint averages at every level:
-//   albedo:  linear RGB of the grain, and its glint value g in alpha (top layer, else 0)
+//   albedo:  linear RGB of the grain
 //   glint:   w, w·bx, w·by, w·bx·by   (w: the light a clear grain gets, else 0; b = slope of the grain
 //            normal, n ∝ (bx, by, 1))
 //   spread:  w·bx², w·by², bx, by
@@ -50,8 +50,7 @@ void main() {
     }
     vec3 n = normal_height.xyz;
     vec2 b = n.xy / n.z;   // n.z ≥ the profile's minimum over |∇n|: never 0
-    float glint_value = layer == 0 ? float(word >> 24u) / 256.0 : 0.0;
-    out_albedo = vec4(albedo, glint_value);
+    out_albedo = vec4(albedo, 1.0);
     out_glint = vec4(w, w * b, w * b.x * b.y);
     out_spread = vec4(w * b * b, b);
     out_hole = w * exp(-0.5 * dot(b, b) / HOLE_SCALE2);

@@ -19,7 +19,7 @@ struct SurfacePoint {
     vec2 uv;         // metres along the surface; the material applies its scale
 };
 
-uniform sampler2D u_albedo;          // linear albedo, glint value g
+uniform sampler2D u_albedo;          // linear albedo
 uniform sampler2D u_glint_moments;   // w, w·bx, w·by, w·bx·by
 uniform sampler2D u_spread_moments;  // w·bx², w·by², bx, by
 uniform sampler2D u_hole_moments;    // w·exp(−|b|²/2s₀²)

@@ -103,7 +103,7 @@ class Sweep:
         probe.glint_filter = "ours"
         image, _ = probe.render(camera, "full", lower_half=True)
         finite &= bool(np.isfinite(image).all())
-        frame, frame_finite = self._frame(distance, time_text)
+        frame, frame_finite = self.frame(distance, time_text)
         ground = frame[frame.shape[0] // 2 :]
         return {
             "finite": finite and frame_finite,
@@ -113,7 +113,7 @@ class Sweep:
             "clipped": float((ground.min(axis=-1) >= CLIPPED).mean()),
         }
 
-    def _frame(self, distance: float, time_text: str) -> tuple[np.ndarray, bool]:
+    def frame(self, distance: float, time_text: str) -> tuple[np.ndarray, bool]:
         width, height = self.frame_size
         terrain = self.renderer.terrain
         camera = camera_at_distance(
@@ -191,7 +191,7 @@ def contact_sheet(path: str, size=(320, 180), distances=(0.3, 3.0, 30.0), time_t
             sweep.material.update(Preset.load(bundled_preset(name)))
             sweep.renderer.set_material(sweep.material)
             for column, distance in enumerate(distances):
-                frame, _ = sweep._frame(distance, time_text)
+                frame, _ = sweep.frame(distance, time_text)
                 sheet.paste(Image.fromarray(frame), (column * size[0], row * size[1]))
     finally:
         sweep.release()

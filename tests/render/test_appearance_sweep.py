@@ -68,7 +68,7 @@ def test_black_sand_is_black_and_glints(sweep):
     sweep.renderer.set_material(sweep.material)
     size, sweep.frame_size = sweep.frame_size, (320, 180)  # the size the views use
     try:
-        frame, _ = sweep._frame(0.3, "16:30")
+        frame, _ = sweep.frame(0.3, "16:30")
     finally:
         sweep.frame_size = size
     ground = frame[frame.shape[0] // 2 :].astype(float) / 255.0
