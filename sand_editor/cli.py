@@ -13,6 +13,8 @@ from sand_editor.resources import bundled_preset
 from sand_editor.untrusted import printable, shorten
 
 MAX_ERROR_CHARS = 500  # one line on stderr, whatever the input held
+# The viewer's grain texture sizes: the editor's preview sizes (whose tiles it shares) and more.
+VR_TEXTURE_SIZES = (256, 512, 1024, 2048)
 
 
 class CommandError(Exception):
@@ -136,6 +138,7 @@ def _cmd_vr(args) -> int:
         day_speed=args.day_speed,
         mode=args.mode,
         frames=args.frames,
+        texture_size=args.texture_size,
         screenshot=Path(args.screenshot) if args.screenshot else None,
     )
     return run_viewer(
@@ -252,6 +255,14 @@ def _parser() -> argparse.ArgumentParser:
         help="simulated hours per second (0: still)",
     )
     vr.add_argument("--mode", choices=MODES, default="full", help="what to show")
+    vr.add_argument(
+        "--texture-size",
+        type=int,
+        choices=VR_TEXTURE_SIZES,
+        default=1024,
+        metavar="N",
+        help=f"grain texture size in pixels, one of {', '.join(map(str, VR_TEXTURE_SIZES))}",
+    )
     vr.add_argument(
         "--screenshot",
         metavar="FILE.png",

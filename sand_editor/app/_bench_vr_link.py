@@ -2,9 +2,11 @@
 
 Opens the editor window, starts the desktop stereo preview from it (the same process, link and
 frame loop as a headset), makes edits through the preset model as a control would, and times
-each from the edit to the viewer's "applied" answer. Generation edits make new grains in the
-viewer; their generation time, measured apart on a headless context at the viewer's texture
-size, is subtracted to give the link's own share. Needs a display (run it under xvfb-run):
+each from the edit to the viewer's "applied" answer. A generation edit's new grains are either
+the editor's own tile, handed over in shared memory (``editor``), or made again by the viewer
+(``viewer``, the editor's tiles not shared): both are run, at the editor's tile size. Their
+generation time, measured apart on a headless context, is subtracted to give the link's own
+share. Needs a display (run it under xvfb-run):
 
     xvfb-run -a sand-editor bench vr-link [--quick] [--json FILE]
 
@@ -22,7 +24,6 @@ from pathlib import Path
 READY_TIMEOUT_S = 180.0
 APPLIED_TIMEOUT_S = 60.0
 SETTLE_S = 0.3  # between edits, so each is timed alone
-VIEWER_TEXTURE_SIZE = 1024  # the viewer's grain textures (sand_editor.vr.loop.ViewerOptions)
 
 
 def _wait(app, condition, timeout_s: float, what: str) -> None:
@@ -49,7 +50,13 @@ def _edits(window, kind: str, count: int):
 def _measure_link(app, window, kinds, count: int) -> dict:
     link = window.vr.link
     viewer_ms: dict[int, float] = {}
-    link.applied.connect(lambda seq, ms: viewer_ms.__setitem__(seq, ms))
+    sources: dict[int, str] = {}
+
+    def applied(seq: int, ms: float) -> None:
+        viewer_ms[seq] = ms
+        sources[seq] = link.applied_grains
+
+    link.applied.connect(applied)
     results = {}
     for kind in kinds:
         rows = []
@@ -60,7 +67,12 @@ def _measure_link(app, window, kinds, count: int) -> dict:
             seq = link.seq
             _wait(app, lambda s=seq: s in viewer_ms, APPLIED_TIMEOUT_S, f"applied {seq}")
             rows.append(
-                {"seq": seq, "edit_to_screen_ms": link.latency_ms[seq], "viewer_ms": viewer_ms[seq]}
+                {
+                    "seq": seq,
+                    "edit_to_screen_ms": link.latency_ms[seq],
+                    "viewer_ms": viewer_ms[seq],
+                    "grains": sources[seq],
+                }
             )
             settle = time.perf_counter() + SETTLE_S
             _wait(app, lambda t=settle: time.perf_counter() > t, SETTLE_S + 1, "settling")
@@ -68,13 +80,13 @@ def _measure_link(app, window, kinds, count: int) -> dict:
     return results
 
 
-def _generation_ms(preset, count: int) -> list[float]:
+def _generation_ms(preset, count: int, size: int) -> list[float]:
     """Grains plus material textures for new seeds, as the viewer's worker makes them."""
     from sand_editor.gl import standalone_context
     from sand_editor.render.material import SandMaterial
 
     ctx = standalone_context()
-    material = SandMaterial(ctx, VIEWER_TEXTURE_SIZE)
+    material = SandMaterial(ctx, size)
     material.update(preset)
     ctx.finish()
     times = []
@@ -97,10 +109,13 @@ def _summary(values: list[float]) -> dict:
     }
 
 
-def _run_viewer(app, window, render_scale: float, edits: int) -> tuple[dict, dict]:
-    """Start the desktop preview from the window, time the edits, close it."""
+def _run_viewer(app, window, render_scale: float, edits: int, share: bool) -> tuple[dict, dict]:
+    """Start the desktop preview from the window (handing it the editor's tiles or not), time
+    the edits, close it."""
     link = window.vr.link
-    link.extra_args = ("--render-scale", f"{render_scale:g}")
+    size = window.regenerator.size
+    link.extra_args = ("--render-scale", f"{render_scale:g}", "--texture-size", str(size))
+    link.share_tiles = share
     window.vr.start(desktop=True)
     _wait(app, lambda: link.is_ready or not link.running, READY_TIMEOUT_S, "the first frame")
     if not link.is_ready:
@@ -115,7 +130,9 @@ def _run_viewer(app, window, render_scale: float, edits: int) -> tuple[dict, dic
         _wait(app, lambda: not link.running, 10.0, "the viewer to close")
 
 
-def _table_rows(info: dict, scale: float, link_rows: dict, generation_ms: float) -> list[dict]:
+def _table_rows(
+    info: dict, scale: float, share: bool, link_rows: dict, generation_ms: float
+) -> list[dict]:
     eye = info["views"][0]
     table = []
     for kind, rows in link_rows.items():
@@ -127,6 +144,8 @@ def _table_rows(info: dict, scale: float, link_rows: dict, generation_ms: float)
                 "render_scale": scale,
                 "eye": f"{eye['width']}×{eye['height']}",
                 "edit": kind,
+                "tiles_shared": share,
+                "grains": "/".join(sorted({row["grains"] for row in rows})),
                 "edits": len(rows),
                 "edit_to_screen_ms": _summary(total),
                 "edit_to_viewer_ms": _summary([t - v for t, v in zip(total, viewer, strict=True)]),
@@ -138,13 +157,13 @@ def _table_rows(info: dict, scale: float, link_rows: dict, generation_ms: float)
     return table
 
 
-def _print_table(system: str, table: list[dict]) -> None:
-    print(f"viewer: {system}, grains {VIEWER_TEXTURE_SIZE}²; median / p90 ms")
+def _print_table(system: str, size: int, table: list[dict]) -> None:
+    print(f"viewer: {system}, grains {size}²; median / p90 ms")
     print(
-        "| eye | edit | edits | edit → on screen | editor → viewer | in the viewer | "
-        "generation (apart) | on screen minus generation |"
+        "| eye | edit | grains from | edits | edit → on screen | editor → viewer | in the viewer "
+        "| generation (apart) | on screen minus generation |"
     )
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     for row in table:
         cells = [
             f"{row[key]['median']:.0f} / {row[key]['p90']:.0f}"
@@ -152,13 +171,15 @@ def _print_table(system: str, table: list[dict]) -> None:
         ]
         net = row["minus_generation_ms"]
         print(
-            f"| {row['eye']} | {row['edit']} | {row['edits']} | {' | '.join(cells)} | "
-            f"{row['generation_ms']:.0f} | **{net['median']:.0f}** / {net['p90']:.0f} |"
+            f"| {row['eye']} | {row['edit']} | {row['grains']} | {row['edits']} | "
+            f"{' | '.join(cells)} | {row['generation_ms']:.0f} | "
+            f"**{net['median']:.0f}** / {net['p90']:.0f} |"
         )
 
 
 def main(quick: bool = False, json_path: str | None = None) -> int:
-    """10 edits of each kind at eye sizes 0.1 and 0.5 of 480×360 (``quick``: 3 edits, 0.1)."""
+    """10 edits of each kind at eye sizes 0.1 and 0.5 of 480×360, with the editor's tiles
+    handed over and without (``quick``: 3 edits, 0.1)."""
     edits, render_scales = (3, [0.1]) if quick else (10, [0.1, 0.5])
     from PySide6.QtWidgets import QApplication
 
@@ -170,22 +191,27 @@ def main(quick: bool = False, json_path: str | None = None) -> int:
     window = EditorWindow(Preset.load(bundled_preset("paper-default")))
     window.show()
     _wait(app, lambda: window.preview.textures is not None, READY_TIMEOUT_S, "the editor")
-    runs = [(scale, *_run_viewer(app, window, scale, edits)) for scale in render_scales]
-    generation = _generation_ms(window.model.preset, edits)
+    runs = [
+        (scale, share, *_run_viewer(app, window, scale, edits, share))
+        for scale in render_scales
+        for share in (True, False)
+    ]
+    size = window.regenerator.size
+    generation = _generation_ms(window.model.preset, edits, size)
     table = [
         row
-        for scale, info, link_rows in runs
-        for row in _table_rows(info, scale, link_rows, statistics.median(generation))
+        for scale, share, info, link_rows in runs
+        for row in _table_rows(info, scale, share, link_rows, statistics.median(generation))
     ]
-    _print_table(runs[0][1]["system"], table)
+    _print_table(runs[0][2]["system"], size, table)
     if json_path:
         document = {
-            "viewer": runs[0][1]["system"],
-            "texture_size": VIEWER_TEXTURE_SIZE,
+            "viewer": runs[0][2]["system"],
+            "texture_size": size,
             "generation_ms": generation,
             "runs": [
-                {"render_scale": scale, "ready": info, "edits": link_rows}
-                for scale, info, link_rows in runs
+                {"render_scale": scale, "tiles_shared": share, "ready": info, "edits": link_rows}
+                for scale, share, info, link_rows in runs
             ],
             "summary": table,
         }

@@ -91,8 +91,10 @@ class Regenerator(QObject):
         self.cache = TextureCache()
         # Statistics of the last full tile (coverage, gaps, grains), computed by the worker.
         self.statistics: dict | None = None
-        # Generation parameters of the tile last produced (low or full resolution).
+        # Generation parameters of the tile last produced (low or full resolution), and of the
+        # last request whose generation failed.
         self.generation = None
+        self.failed_generation = None
         self._preset: Preset | None = None
         self._serial = 0  # the job the GUI wants; older ones are dropped
         self._running_serial: int | None = None
@@ -131,6 +133,15 @@ class Regenerator(QObject):
             self.finished.emit(textures, 0.0)
             return
         self._debounce.start()
+
+    def full_tile(self, generation, size: int) -> SandTextures | None:
+        """The full tile of ``generation`` at ``size`` if there is one: the one just delivered
+        (before its statistics are counted), or one from the cache."""
+        final = self._final
+        if final is not None and final.generation == generation and final.size == size:
+            return final
+        cached = self.cache.get((generation, size))
+        return None if cached is None else cached[0]
 
     def set_size(self, size: int) -> None:
         if size != self.size:
@@ -184,6 +195,7 @@ class Regenerator(QObject):
     def _on_error(self, serial: int, message: str) -> None:
         if serial == self._serial:
             self._running_serial = None
+            self.failed_generation = self._preset.generation
             self.failed.emit(message)
 
     # -- worker thread ---------------------------------------------------------------------------

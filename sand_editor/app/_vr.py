@@ -1,8 +1,9 @@
 """The editor's side of the VR link: start ``sand-editor vr --control stdio`` as a child process,
 stream the preset being edited, the time of day and the mode to it, and turn its answers into Qt
 signals (protocol: ``sand_editor.vr.link``). The window's button and bindings are in
-``_vr_controls``, the coalescing of what is sent in ``_vr_outbox``, and the wording of how the
-viewer ended in ``_vr_exit``.
+``_vr_controls``, its command line in ``_vr_command``, the coalescing of what is sent in
+``_vr_outbox``, the tiles handed over in ``_vr_grains``, and the wording of how the viewer ended
+in ``_vr_exit``.
 
 The viewer is a separate process so that a runtime, driver or headset problem can never take the
 editor down: whatever the viewer does (crash, hang, refuse to start), the editor says what
@@ -13,7 +14,6 @@ from __future__ import annotations
 
 import collections
 import os
-import shlex
 import shutil
 import sys
 import tempfile
@@ -22,58 +22,18 @@ from pathlib import Path
 
 from PySide6.QtCore import QObject, QProcess, QProcessEnvironment, QTimer, Signal
 
+from sand_editor.app._vr_command import PYTHON_VARIABLE, WRAPPER_VARIABLE, viewer_command
 from sand_editor.app._vr_exit import SIGKILL, describe_exit
 from sand_editor.app._vr_outbox import Outbox
 from sand_editor.preset import Preset
 from sand_editor.vr.link import check_time_fields, decode, encode
 
-WRAPPER_VARIABLE = "SAND_EDITOR_VR_WRAPPER"
-# The interpreter that runs the viewer; a wrapper that changes root (tools/monado/run) has its
-# own Python, where this process's sys.executable does not exist.
-PYTHON_VARIABLE = "SAND_EDITOR_VR_PYTHON"
 READY_TIMEOUT_MS = 60_000  # first frame: shader compile and grain generation on llvmpipe
 ANSWER_TIMEOUT_MS = 30_000  # a preset not on screen by then: the viewer is not responding
 QUIT_GRACE_MS = 3000  # after "quit", before SIGTERM
 TERMINATE_GRACE_MS = 2000  # after SIGTERM, before SIGKILL
 STDERR_LINES_KEPT = 40
 STDERR_LINES_SHOWN = 6
-
-
-def viewer_command(
-    preset_file: Path | None,
-    desktop: bool,
-    scene: dict | None = None,
-    extra_args: tuple[str, ...] = (),
-) -> list[str]:
-    """The command line that starts the viewer, wrapper first; without ``preset_file`` the
-    viewer starts on its default preset.
-
-    ``scene`` holds what the viewer starts with: ``hours``, ``day_speed`` (simulated hours per
-    real second, 0 when the day is paused) and ``mode``, each optional.
-
-    Raises
-    ------
-    ValueError
-        When the wrapper variable cannot be split like a shell command line.
-    """
-    try:
-        wrapper = shlex.split(os.environ.get(WRAPPER_VARIABLE, ""))
-    except ValueError as error:
-        raise ValueError(f"{WRAPPER_VARIABLE}: {error}") from None
-    python = os.environ.get(PYTHON_VARIABLE) or sys.executable
-    command = [*wrapper, python, "-m", "sand_editor", "vr", "--control", "stdio"]
-    if desktop:
-        command.append("--desktop")
-    scene = scene or {}
-    if "hours" in scene:
-        minutes = round(scene["hours"] * 60.0) % (24 * 60)
-        command += ["--time", f"{minutes // 60:02d}:{minutes % 60:02d}"]
-    if scene.get("day_speed"):
-        command += ["--day-speed", f"{scene['day_speed']:.6g}"]
-    if "mode" in scene:
-        command += ["--mode", scene["mode"]]
-    command += extra_args
-    return command if preset_file is None else [*command, str(preset_file)]
 
 
 class VrLink(QObject):
@@ -109,8 +69,10 @@ class VrLink(QObject):
     error = Signal(str)
     finished = Signal(int, str)
 
-    def __init__(self, parent: QObject | None = None):
+    def __init__(self, parent: QObject | None = None, tiles=None):
         super().__init__(parent)
+        self.tiles = tiles  # a SharedTiles: the editor's tiles go to the viewer with its presets
+        self.share_tiles = True  # False: the viewer makes its grains itself (for comparison)
         self.ready_timeout_ms = READY_TIMEOUT_MS
         self.extra_args: tuple[str, ...] = ()  # more viewer options, e.g. ("--render-scale", "0.5")
         self.process: QProcess | None = None
@@ -120,6 +82,8 @@ class VrLink(QObject):
         self.stderr_lines: collections.deque[str] = collections.deque(maxlen=STDERR_LINES_KEPT)
         self.sent: collections.Counter[str] = collections.Counter()  # messages by type
         self._outbox = Outbox(self._send, lambda: self.is_ready, self._accepting, self)
+        self._outbox.tiles = tiles
+        self.applied_grains = ""  # where the grains of the preset last shown came from
         self._outbox.preset_sent.connect(self._preset_sent)
         self._stdout = b""
         self._folder: str | None = None
@@ -192,6 +156,10 @@ class VrLink(QObject):
                 self._folder = tempfile.mkdtemp(prefix="sand-editor-vr-")
                 preset_file = Path(self._folder) / "preset.json"
                 preset.save(preset_file)
+            # Shared memory, like the temporary folder, is only known to be shared unwrapped.
+            share = self.share_tiles and not through_link
+            if self.tiles is not None and self.tiles.start(share) is not None:
+                scene = {**(scene or {}), "texture_size": self.tiles.size}
             command = viewer_command(preset_file, desktop, scene, tuple(self.extra_args))
         except ValueError as error:  # PresetError included
             self._end(-1, f"Cannot start the VR viewer: {error}")
@@ -302,6 +270,8 @@ class VrLink(QObject):
         for timer in timers:
             timer.stop()
         self._outbox.stop()
+        if self.tiles is not None:
+            self.tiles.clear()
         self.responding = True
         if process is not None:
             if process.state() != QProcess.ProcessState.NotRunning:
@@ -374,6 +344,7 @@ class VrLink(QObject):
             elif self._answer_timer.isActive():
                 self._answer_timer.start(self.answer_timeout_ms)  # answering, a newer one is due
             self.responding = True
+            self.applied_grains = str(message.get("grains", ""))
             self._outbox.shown(seq)
             self.applied.emit(seq, float(message.get("ms", "nan")))
         elif kind == "time":

@@ -10,6 +10,7 @@ from PySide6.QtWidgets import QApplication, QLabel, QMainWindow, QMessageBox, QP
 
 from sand_editor.app._vr import VrLink
 from sand_editor.app._vr_exit import LOG_HEADING
+from sand_editor.app._vr_grains import SharedTiles
 from sand_editor.preset import Preset
 from sand_editor.view import CLOCK, MODES, ViewState
 from sand_editor.vr.link import (
@@ -47,7 +48,7 @@ class VrControls(QObject):
     def __init__(self, window: QMainWindow):
         super().__init__(window)
         self.window = window
-        self.link = VrLink(self)
+        self.link = VrLink(self, SharedTiles(window.regenerator))
         self.message_box: QMessageBox | None = None
         self.desktop_button: QPushButton | None = None
         self._close_window_after = False

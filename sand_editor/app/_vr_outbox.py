@@ -13,6 +13,7 @@ from PySide6.QtCore import QObject, QTimer, Signal
 from sand_editor.preset import Preset
 
 SEND_INTERVAL_MS = 50  # at most one send per interval: a slider drag sends its latest value
+HOLD_RETRY_MS = 50  # a preset waiting for the editor's tile of its grains asks again this often
 LATENCIES_KEPT = 100
 
 
@@ -22,7 +23,8 @@ class Outbox(QObject):
     ``write(message)`` puts one message on the link. Sends wait until ``ready()`` is true (the
     viewer has shown its first frame) and are skipped while ``accepting()`` is false (no process,
     or it is being stopped), keeping what waits; ``write_preset`` sends the waiting preset
-    regardless.
+    regardless. With ``tiles`` (``SharedTiles``), a preset goes with the editor's tile of its
+    grains, and waits for that tile while it is being made.
 
     Signals
     -------
@@ -40,6 +42,7 @@ class Outbox(QObject):
         parent: QObject | None = None,
     ):
         super().__init__(parent)
+        self.tiles = None  # a SharedTiles, when the editor hands its tiles over
         self._write = write
         self._ready = ready
         self._accepting = accepting
@@ -70,6 +73,8 @@ class Outbox(QObject):
         self._pending_preset = None
         self._pending.clear()
         self._edit_times.clear()
+        if self.tiles is not None:
+            self.tiles.clear()
 
     def start(self, preset: Preset, through_link: bool) -> None:
         """A viewer starts on ``preset``: on its command line, or (``through_link``) as the first
@@ -123,16 +128,28 @@ class Outbox(QObject):
 
     def write_preset(self) -> None:
         """Send the waiting preset now, unless the viewer has it already."""
-        preset, self._pending_preset = self._pending_preset, None
-        if preset is not None and preset != self._sent_preset:
-            self.seq += 1
-            self._edit_times[self.seq] = self._pending_since
-            self._sent_preset = preset
-            self._write({"type": "preset", "preset": preset.to_dict(), "seq": self.seq})
-            self.preset_sent.emit()
+        preset = self._pending_preset
+        if preset is None or preset == self._sent_preset:
+            self._pending_preset = None
+            return
+        extra = {}
+        if self.tiles is not None:
+            held_s = time.perf_counter() - self._pending_since
+            extra = self.tiles.fields(preset, self._sent_preset, self.seq + 1, held_s)
+            if extra is None:  # its grains are being made: ask again shortly
+                self._timer.start(HOLD_RETRY_MS)
+                return
+        self._pending_preset = None
+        self.seq += 1
+        self._edit_times[self.seq] = self._pending_since
+        self._sent_preset = preset
+        self._write({"type": "preset", "preset": preset.to_dict(), "seq": self.seq, **extra})
+        self.preset_sent.emit()
 
     def shown(self, seq: int) -> None:
         """The viewer shows preset ``seq``: time it, and forget those sent before it."""
+        if self.tiles is not None:
+            self.tiles.shown(seq)
         edited = self._edit_times.pop(seq, None)
         if edited is not None:
             self.latency_ms[seq] = (time.perf_counter() - edited) * 1000.0

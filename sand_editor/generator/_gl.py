@@ -65,6 +65,22 @@ class GpuSandTextures:
             generation=generation,
         )
 
+    def copy_from(self, other: GpuSandTextures) -> None:
+        """Make these textures hold ``other``'s grains (same context and size), on the GPU."""
+        if other.size != self.size:
+            raise ValueError(f"grains are {other.size}², these textures {self.size}²")
+        ctx = self.framebuffer.ctx
+        pairs = ((self.normal_height, other.normal_height), (self.layer_grain, other.layer_grain))
+        for target, source in pairs:
+            # A blit between framebuffers of one attachment each: copying straight into a
+            # texture does not take float or integer formats.
+            read, draw = ctx.framebuffer([source]), ctx.framebuffer([target])
+            try:
+                ctx.copy_framebuffer(draw, read)
+            finally:
+                read.release()
+                draw.release()
+
     def release(self) -> None:
         for obj in (self.framebuffer, self.normal_height, self.layer_grain):
             obj.release()

@@ -176,14 +176,15 @@ class SandMaterial:
     def update(
         self,
         preset: Preset,
-        grains: SandTextures | None = None,
+        grains: SandTextures | SandMaterial | None = None,
         between_bands: Callable[[], None] | None = None,
         cancelled: Callable[[], bool] | None = None,
     ) -> bool:
         """Shade with ``preset``, doing only the work its changes need.
 
         The one way grains come in. With ``grains`` (made elsewhere, e.g. read back from
-        another context), those are uploaded and kept: the preset's shading is applied to them
+        another context, or another material of this context and size, whose grains are copied
+        on the GPU), those are taken and kept: the preset's shading is applied to them
         even while their generation is not yet the preset's, so a view waiting for its next
         tile never makes grains itself. Without, new grains are made here when the preset's
         generation differs from the grains the material holds (``grains_generation``).
@@ -203,7 +204,11 @@ class SandMaterial:
             raise
 
     def _update(self, preset, grains, between_bands, cancelled) -> bool:
-        if grains is not None:
+        if isinstance(grains, SandMaterial):
+            self._grains.copy_from(grains._grains)
+            self._built_for = None
+            self.grains_generation = grains.grains_generation
+        elif grains is not None:
             self._upload(grains)
         elif self.grains_generation != preset.generation:
             constants = NoiseConstants.from_generation(preset.generation)

@@ -14,6 +14,7 @@ from sand_editor.vr.errors import LinkBrokenError
 from sand_editor.vr.link import (
     EDITOR_MESSAGES,
     LinkError,
+    check_grains,
     check_seq,
     check_time_fields,
     error_text,
@@ -45,6 +46,7 @@ def handle_message(loop, message: dict) -> None:
     kind = message["type"]
     if kind == "preset":
         seq = check_seq(message)
+        shared = check_grains(message)
         preset = Preset.from_dict(message.get("preset"), source="the editor's preset")
         label = f"{preset.name} (editing)"
         if loop.presets[0][0].endswith("(editing)"):
@@ -52,7 +54,7 @@ def handle_message(loop, message: dict) -> None:
         else:
             loop.presets.insert(0, (label, preset))
         loop.controls = replace(loop.controls, preset_index=0, preset_count=len(loop.presets))
-        loop.worker.request(preset, seq)
+        loop.worker.request(preset, seq, shared)
         loop.pending = (seq, time.perf_counter())
     elif kind == "time":
         fields = check_time_fields(message)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 
 
@@ -26,6 +28,8 @@ class FrameStats:
         self.head_lod = None
         self.head_lod_changes = 0
         self.eye_lod_disagreements = 0
+        # Where the grains of each material shown came from: "editor", "viewer" or "kept".
+        self.grain_sources: Counter[str] = Counter()
 
 
 def summary(values: list[float]) -> dict:
@@ -89,4 +93,5 @@ def loop_report(loop) -> dict:
         "errors": [*stats.errors, *rejected],
         "link_errors_answered": stats.error_count,
         "grain_requests_superseded": loop.worker.superseded,
+        "materials_shown_by_grain_source": dict(stats.grain_sources),
     }

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import moderngl
 
+from sand_editor.generator.shared import read_shared
 from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
@@ -41,6 +42,8 @@ class ReadyMaterial:
     seq: int | None
     received_s: float
     error: str | None = None
+    grains: str = "kept"  # "editor": its shared tile; "viewer": made here; "kept": none needed
+    note: str | None = None  # why the editor's tile was not used (the grains were made here)
 
 
 class GrainWorker:
@@ -48,10 +51,12 @@ class GrainWorker:
     drawing context) in a daemon thread.
 
     It owns exactly two materials, made at start: the one on screen and the one being brought
-    up to date; nothing is made or released per edit. ``request(preset, seq)`` asks for a
-    preset; a newer request replaces one not yet started, and stops one being made at its next
-    band (``superseded`` counts both). ``poll()`` returns a finished ``ReadyMaterial`` or None;
-    ``give_back(material)`` hands back the material that is no longer drawn, for the next turn.
+    up to date; nothing is made or released per edit. ``request(preset, seq, shared)`` asks for
+    a preset, with ``shared`` (segment name, size) naming the editor's finished tile of its
+    grains, read instead of making them when it can be. A newer request replaces one not yet
+    started, and stops one being made at its next band (``superseded`` counts both).
+    ``poll()`` returns a finished ``ReadyMaterial`` or None; ``give_back(material)`` hands back
+    the material that is no longer drawn, for the next turn.
     """
 
     MATERIALS = 2
@@ -61,11 +66,12 @@ class GrainWorker:
         self._window = window
         self._texture_size = texture_size
         self._wake = threading.Condition()
-        self._request: tuple[Preset, int | None, float] | None = None
+        self._request: tuple[Preset, int | None, float, tuple[str, int] | None] | None = None
         self._spare: list[SandMaterial] = []
         self._building = False
         self._closing = False
         self._ready: queue.SimpleQueue[ReadyMaterial] = queue.SimpleQueue()
+        self._latest: SandMaterial | None = None  # the material last made ready: on screen
         self._started = threading.Event()
         self._start_error: BaseException | None = None
         self.superseded = 0
@@ -80,11 +86,13 @@ class GrainWorker:
         """A request is waiting or being made."""
         return self._request is not None or self._building
 
-    def request(self, preset: Preset, seq: int | None = None) -> None:
+    def request(
+        self, preset: Preset, seq: int | None = None, shared: tuple[str, int] | None = None
+    ) -> None:
         with self._wake:
             if self._request is not None:
                 self.superseded += 1
-            self._request = (preset, seq, time.perf_counter())
+            self._request = (preset, seq, time.perf_counter(), shared)
             self._wake.notify()
 
     def poll(self) -> ReadyMaterial | None:
@@ -117,7 +125,7 @@ class GrainWorker:
         """Asked between bands: a newer request is waiting, or the viewer is closing."""
         return self._request is not None or self._closing
 
-    def _next_job(self) -> tuple[tuple[Preset, int | None, float], SandMaterial] | None:
+    def _next_job(self) -> tuple[tuple, SandMaterial] | None:
         """The newest request and a spare material to make it in; None when closing."""
         with self._wake:
             while not self._closing and (self._request is None or not self._spare):
@@ -127,6 +135,18 @@ class GrainWorker:
             job, self._request = self._request, None
             self._building = True
             return job, self._spare.pop()
+
+    def _shared_grains(self, preset: Preset, shared) -> tuple[object, str | None]:
+        """The editor's tile named by ``shared``, or None and why it cannot be used."""
+        if shared is None:
+            return None, None
+        name, size = shared
+        if size != self._texture_size:
+            return None, f"its tile is {size}², the viewer's grains are {self._texture_size}²"
+        try:
+            return read_shared(name, size, preset.generation), None
+        except ValueError as exc:
+            return None, str(exc)
 
     def _run(self) -> None:
         try:
@@ -150,10 +170,20 @@ class GrainWorker:
         self._started.set()
         try:
             while (next_job := self._next_job()) is not None:
-                (preset, seq, received), material = next_job
+                (preset, seq, received, shared), material = next_job
+                grains, note = self._shared_grains(preset, shared)
+                latest = self._latest
+                if grains is None and material.grains_generation != preset.generation:
+                    # A shading edit after new grains: the material on screen has them.
+                    if latest is not None and latest.grains_generation == preset.generation:
+                        grains = latest
+                made_here = grains is None and material.grains_generation != preset.generation
                 try:
                     finished = material.update(
-                        preset, between_bands=_cede_to_the_frame_loop, cancelled=self._superseded
+                        preset,
+                        grains,
+                        between_bands=_cede_to_the_frame_loop,
+                        cancelled=self._superseded,
                     )
                     # Everything written must be visible to the drawing context before use.
                     finish_without_gil()
@@ -168,7 +198,10 @@ class GrainWorker:
                         self.superseded += 1
                     self.give_back(material)
                     continue
-                self._ready.put(ReadyMaterial(material, preset, seq, received))
+                shared_tile = grains is not None and grains is not latest
+                source = "editor" if shared_tile else "viewer" if made_here else "kept"
+                self._latest = material
+                self._ready.put(ReadyMaterial(material, preset, seq, received, None, source, note))
         finally:
             # Programs and framebuffers of these materials belong to this context.
             for material in materials:

@@ -3,9 +3,13 @@
 The editor imports the constants and ``encode``/``decode`` from here, so this module imports
 nothing of OpenXR, OpenGL or Qt.
 
-editor → viewer: ``preset`` (whole preset dict, ``seq``), ``time`` (``hours``, ``day_speed``,
-``playing``, any subset), ``mode``, ``quit``; EOF on stdin means quit.
-viewer → editor: ``ready``, ``state``, ``applied``, ``time``, ``mode``, ``error``, ``bye``.
+editor → viewer: ``preset`` (whole preset dict, ``seq``, and optionally ``grains``: ``shm``, the
+name of a shared-memory segment holding the editor's finished tile of this preset's grains, and
+``size``), ``time`` (``hours``, ``day_speed``, ``playing``, any subset), ``mode``, ``quit``; EOF on
+stdin means quit.
+viewer → editor: ``ready``, ``state``, ``applied`` (``seq``, ``ms``, ``grains``: ``editor`` when
+it shows the editor's tile, ``viewer`` when it made the grains, ``kept`` when none were needed),
+``time``, ``mode``, ``error``, ``bye``.
 """
 
 from __future__ import annotations
@@ -17,6 +21,8 @@ import sys
 import threading
 from typing import IO, Any
 
+from sand_editor.generator.shared import NAME_PATTERN
+from sand_editor.generator.shared import SIZES as SHARED_SIZES
 from sand_editor.untrusted import bounded_number, deeper_than, printable, shorten
 from sand_editor.view import MAX_DAY_SPEED
 
@@ -96,6 +102,25 @@ def check_seq(message: dict) -> int | None:
         shown = shorten(repr(seq), 40) if isinstance(seq, (int, float, str)) else type(seq).__name__
         raise LinkError(f"seq must be null or an integer from 0 to 2**53, got {shown}")
     return seq
+
+
+def check_grains(message: dict) -> tuple[str, int] | None:
+    """A preset message's ``grains``: absent or null, or ``{"shm": name, "size": pixels}``."""
+    grains = message.get("grains")
+    if grains is None:
+        return None
+    if not isinstance(grains, dict):
+        raise LinkError(f"grains must be an object or null, got {type(grains).__name__}")
+    name, size = grains.get("shm"), grains.get("size")
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
+        shown = shorten(repr(name), 40) if isinstance(name, str) else type(name).__name__
+        raise LinkError(f"grains.shm must be 1-64 letters, digits, '_', '.' or '-', got {shown}")
+    if isinstance(size, bool) or size not in SHARED_SIZES:
+        scalar = isinstance(size, int | float | str)
+        shown = shorten(repr(size), 40) if scalar else type(size).__name__
+        allowed = ", ".join(map(str, SHARED_SIZES))
+        raise LinkError(f"grains.size must be one of {allowed}, got {shown}")
+    return name, int(size)
 
 
 def check_time_fields(message: dict) -> dict:

@@ -89,7 +89,7 @@ class FrameLoop:
         self.time_dirty_since: float | None = None
         self.last_time_message = 0.0
         self.ready_sent = False
-        self.pending_applied: tuple[int | None, float] | None = None
+        self.pending_applied: tuple[int | None, float, str] | None = None
         self.resources: dict[str, dict] = {}
         self._builds_before_loop = 0
         self._waiting_since: float | None = None
@@ -272,8 +272,9 @@ class FrameLoop:
             )
             self._send_time()
         if self.pending_applied is not None and frame.should_render:
-            seq, received = self.pending_applied
-            self.link.send(type="applied", seq=seq, ms=round((now - received) * 1e3, 1))
+            seq, received, grains = self.pending_applied
+            ms = round((now - received) * 1e3, 1)
+            self.link.send(type="applied", seq=seq, ms=ms, grains=grains)
             self.pending_applied = None
         if self.time_dirty_since is not None and now - self.last_time_message >= (
             TIME_MESSAGE_INTERVAL_S
@@ -323,12 +324,15 @@ class FrameLoop:
             return
         if self.pending is not None and self.pending[0] == ready.seq:
             self.pending = None
+        if ready.note is not None:
+            answer_error(self, f"the editor's grains not used, made here instead: {ready.note}")
         if ready.material is None:
             answer_error(self, f"preset {ready.preset.name!r}: {ready.error}; the old sand stays")
             return
+        self.stats.grain_sources[ready.grains] += 1
         self._show(ready.material, ready.preset)
         if ready.seq is not None:
-            self.pending_applied = (ready.seq, ready.received_s)
+            self.pending_applied = (ready.seq, ready.received_s, ready.grains)
 
     def _show(self, material, preset: Preset) -> None:
         old = self.material

@@ -43,9 +43,15 @@ def test_bench_vr_link_times_both_kinds_of_edit(tmp_path):
     )
     assert result.returncode == 0, result.stderr[-3000:]
     summary = json.loads(out.read_text())["summary"]
-    assert [row["edit"] for row in summary] == ["shading", "generation"]
+    assert [(row["edit"], row["tiles_shared"]) for row in summary] == [
+        *(("shading", True), ("generation", True)),
+        *(("shading", False), ("generation", False)),
+    ]
     for row in summary:
         assert row["edits"] == 3
         times = row["edit_to_screen_ms"]
         assert 0.0 < times["median"] <= times["p90"] <= times["max"]
-    assert "| 48×36 | generation | 3 |" in result.stdout
+    # New grains come from the editor's tile when it is shared, from the viewer when not.
+    grains = [row["grains"] for row in summary]
+    assert grains == ["kept", "editor", "kept", "viewer"]
+    assert "| 48×36 | generation | editor | 3 |" in result.stdout

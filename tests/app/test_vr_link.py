@@ -111,6 +111,10 @@ def test_the_command_line_takes_the_wrapper_and_python_from_the_environment(monk
     ]
     # A paused day starts paused: no speed given.
     assert "--day-speed" not in viewer_command(preset, False, {"hours": 9.5, "day_speed": 0.0})
+    # The editor's tile size, when its tiles are shared.
+    assert viewer_command(preset, False, {"texture_size": 512})[-3:] == [
+        *("--texture-size", "512", str(preset))
+    ]
 
     monkeypatch.setenv(WRAPPER_VARIABLE, "tools/monado/run 'unclosed")
     with pytest.raises(ValueError, match=WRAPPER_VARIABLE):
@@ -246,6 +250,10 @@ def test_no_runtime_offers_the_desktop_preview_which_follows_the_editor_both_way
     qtbot.waitUntil(lambda: any(s == vr.link.seq for s, _ in applied), timeout=ANSWER_TIMEOUT_MS)
     assert window.isWindowModified()
     assert vr.link.latency_ms[vr.link.seq] > 0
+    # The viewer shows the editor's own tile of the new grains (through shared memory), whose
+    # segment is gone once shown.
+    assert vr.link.applied_grains == "editor"
+    assert vr.link.tiles.size == window.regenerator.size and vr.link.tiles.segments == 0
 
     # A slider drag: the first value goes at once, the rest as one message with the latest.
     seq_before = vr.link.seq

@@ -11,6 +11,8 @@ import threading
 import time
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sand_editor.vr import link
 from sand_editor.vr.link import LinkError, StdioLink, check_time_fields, decode, encode
@@ -172,3 +174,39 @@ def test_error_text_is_one_bounded_line():
     text = link.error_text("unknown message type 'a\nb\x1b" + "z" * 10_000 + "'")
     assert "\n" not in text and "\\n" in text and "\\x1b" in text
     assert len(text) <= link.MAX_ERROR_CHARS
+
+
+@settings(max_examples=500, deadline=None, database=None)
+@given(
+    grains=st.none()
+    | st.booleans()
+    | st.integers()
+    | st.text(max_size=20)
+    | st.dictionaries(
+        st.sampled_from(["shm", "size", "extra"]),
+        st.none() | st.booleans() | st.integers(-10, 5000) | st.floats() | st.text(max_size=70),
+        max_size=3,
+    )
+)
+def test_grains_of_a_preset_message_are_a_name_and_a_size_or_one_link_error(grains):
+    try:
+        checked = link.check_grains({"type": "preset", "grains": grains})
+    except LinkError as exc:
+        assert "\n" not in str(exc) and str(exc).startswith("grains")
+        return
+    if grains is None:
+        assert checked is None
+        return
+    name, size = checked
+    assert name == grains["shm"] and "/" not in name and size in link.SHARED_SIZES
+
+
+def test_grains_name_a_segment_never_a_path():
+    ok = {"type": "preset", "grains": {"shm": "psm_0a1b2c3d", "size": 512}}
+    assert link.check_grains(ok) == ("psm_0a1b2c3d", 512)
+    for name in ("../etc/passwd", "/psm_1", "", "a" * 65, "x y"):
+        with pytest.raises(LinkError, match="grains.shm must be"):
+            link.check_grains({"type": "preset", "grains": {"shm": name, "size": 512}})
+    for size in (500, True, 512.5, "512", None):
+        with pytest.raises(LinkError, match="grains.size must be one of"):
+            link.check_grains({"type": "preset", "grains": {"shm": "psm_1", "size": size}})

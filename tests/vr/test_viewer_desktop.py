@@ -306,3 +306,54 @@ def test_soak_2000_frames_keep_gl_objects_and_memory_flat(tmp_path):
     assert sum(warm["gl_objects"].values()) > 10
     assert end["gl_objects"] == warm["gl_objects"]
     assert end["resident_mb"] - warm["resident_mb"] < 40
+
+
+@needs_display
+def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_path, gl_ctx):
+    from sand_editor.generator import generate
+    from sand_editor.generator.shared import SharedTile, read_shared
+
+    report_path = tmp_path / "report.json"
+    size = 256
+    args = ("--desktop", "--render-scale", "0.1", "--texture-size", str(size))
+    viewer = _Viewer(*args, "--report", str(report_path))
+    edit = Preset.from_dict(_edited("shared", **{"generation.seed": 4242}))
+    tile = SharedTile(generate(edit, size, ctx=gl_ctx))
+    larger = SharedTile(generate(edit, 2 * size, ctx=gl_ctx))
+    try:
+        viewer.expect(lambda m: m["type"] == "ready")
+        grains = {"shm": tile.name, "size": size}
+        viewer.send("preset", preset=edit.to_dict(), seq=1, grains=grains)
+        applied = viewer.expect(lambda m: m["type"] in ("applied", "error"))
+        assert applied["type"] == "applied" and applied["grains"] == "editor", viewer.seen
+
+        # A segment that is gone, or of another size, is said once; the viewer makes the grains.
+        for seq, (name, tile_size, reason) in enumerate(
+            [("psm_gone", size, "no shared tile"), (larger.name, 2 * size, "its tile is 512²")],
+            start=2,
+        ):
+            viewer.seen.clear()
+            other = edit.replace(**{"generation.seed": 4242 + seq})
+            grains = {"shm": name, "size": tile_size}
+            viewer.send("preset", preset=other.to_dict(), seq=seq, grains=grains)
+            applied = viewer.expect(lambda m, seq=seq: m.get("seq") == seq)
+            assert applied["grains"] == "viewer"
+            errors = [m["message"] for m in viewer.seen if m["type"] == "error"]
+            assert len(errors) == 1 and reason in errors[0], viewer.seen
+
+        # A shading edit needs no grains.
+        shading = other.replace(**{"shading.facet_roughness": 0.3})
+        viewer.send("preset", preset=shading.to_dict(), seq=9)
+        assert viewer.expect(lambda m: m.get("seq") == 9)["grains"] == "kept"
+        viewer.send("quit")
+        assert viewer.expect(lambda m: m["type"] == "bye")["status"] == 0
+        assert viewer.finish() == 0
+        # The viewer read the segment and let it be: the editor's to unlink.
+        assert read_shared(tile.name, size, edit.generation).size == size
+    finally:
+        viewer.finish(timeout=5)
+        tile.close()
+        larger.close()
+    report = json.loads(report_path.read_text())
+    # After the first sand (made before the first frame), each edit once.
+    assert report["materials_shown_by_grain_source"] == {"viewer": 2, "editor": 1, "kept": 1}

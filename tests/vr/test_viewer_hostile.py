@@ -45,6 +45,10 @@ BAD_LINES = {
     "time of the wrong type": b'{"type": "time", "hours": [], "playing": "yes"}\n',
     "preset of the wrong type": b'{"type": "preset", "preset": "paper-default"}\n',
     "key with a newline": b'{"type": "x\\nTraceback (most recent call last):"}\n',
+    "grains of the wrong type": b'{"type": "preset", "preset": {}, "grains": [1]}\n',
+    "grains naming a path": (
+        b'{"type": "preset", "preset": {}, "grains": {"shm": "../../etc/passwd", "size": 512}}\n'
+    ),
 }
 
 
@@ -71,7 +75,8 @@ def test_each_kind_of_bad_line_gets_one_error_and_an_edit_still_applies(viewer, 
     seq = 1000 + list(BAD_LINES).index(kind)
     viewer.send_raw(_shading_edit(seq))
     applied = viewer.expect(lambda m: m["type"] in ("applied", "error"), timeout=120)
-    assert applied == {"type": "applied", "seq": seq, "ms": applied["ms"]}, viewer.seen
+    expected = {"type": "applied", "seq": seq, "ms": applied["ms"], "grains": "kept"}
+    assert applied == expected, viewer.seen
     assert sum(m["type"] == "error" for m in viewer.seen) == 1, viewer.seen
     _alive(viewer)
 
