@@ -105,19 +105,21 @@ def _writer_alive(pid: int) -> bool:
     return True
 
 
-def remove_stray_temporaries(folder: str | os.PathLike[str], name: str) -> int:
-    """Remove temporary files for ``name`` in ``folder`` whose writing process is gone.
+def remove_stray_temporaries(folder: str | os.PathLike[str], *names: str) -> int:
+    """Remove temporary files for each of ``names`` in ``folder`` whose writing process is
+    gone, listing the folder once.
 
     Returns how many were removed. Temporary files of live writers are left alone.
     """
-    prefix = _temporary_prefix(name)
+    prefixes = tuple(_temporary_prefix(name) for name in names)
     removed = 0
     try:
         entries = os.listdir(folder)
     except OSError:
         return 0
     for entry in entries:
-        if not (entry.startswith(prefix) and entry.endswith(TEMP_SUFFIX)):
+        prefix = max((p for p in prefixes if entry.startswith(p)), key=len, default=None)
+        if prefix is None or not entry.endswith(TEMP_SUFFIX):
             continue
         pid_text = entry[len(prefix) : -len(TEMP_SUFFIX)].partition("-")[0]
         if not pid_text.isdigit() or _writer_alive(int(pid_text)):
@@ -230,10 +232,10 @@ def write_folder(folder: str | os.PathLike[str], files: Mapping[str, bytes]) -> 
     written: list[tuple[str, str]] = []
     try:
         with _folder_lock(target):
+            remove_stray_temporaries(target, *files)
             for name, data in files.items():
                 current = os.fspath(shown / name)
                 final = os.path.join(target, name)
-                remove_stray_temporaries(target, name)
                 written.append((_write_temporary(final, data), final))
             for temporary, final in written:
                 current = os.fspath(shown / os.path.basename(final))

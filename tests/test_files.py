@@ -103,6 +103,22 @@ def test_stray_temporaries_of_dead_writers_go_and_live_ones_stay(tmp_path):
         sleeper.wait()
 
 
+def test_a_folder_write_clears_every_files_dead_temporaries_listing_the_folder_once(
+    tmp_path, monkeypatch
+):
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()  # fmt: skip
+    names = [f"map{i}.png" for i in range(6)] + ["map0.png.json"]
+    for name in names:
+        (tmp_path / f".{name}.{dead}-0badcafe.tmp").write_text("half")
+    listed = []
+    real_listdir = os.listdir
+    monkeypatch.setattr(os, "listdir", lambda path: listed.append(path) or real_listdir(path))
+    write_folder(tmp_path, {name: name.encode() for name in names})
+    assert len(listed) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names)
+
+
 SAVER = """
 import sys
 from sand_editor.preset import Preset
