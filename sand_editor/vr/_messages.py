@@ -21,6 +21,7 @@ from sand_editor.vr.link import (
 )
 
 MAX_REPORTED_ERRORS = 200  # the report keeps the first errors; each is still answered
+LINK = "link"  # the source of view changes the editor made: not sent back to it
 
 
 def handle_link(loop) -> None:
@@ -57,14 +58,13 @@ def handle_message(loop, message: dict) -> None:
         loop.worker.request(preset, seq, shared)
         loop.pending = (seq, time.perf_counter())
     elif kind == "time":
-        fields = check_time_fields(message)
-        loop.controls = replace(loop.controls, **fields)
+        loop.view.update(LINK, **check_time_fields(message))
     elif kind == "mode":
         mode = message.get("mode")
         if not isinstance(mode, str) or mode not in MODES:
             shown = repr(mode) if isinstance(mode, str) else type(mode).__name__
             raise LinkError(f"unknown mode {shown}; allowed: {', '.join(MODES)}")
-        loop.controls = replace(loop.controls, mode=mode)
+        loop.view.update(LINK, mode=mode)
     elif kind == "quit":
         loop.backend.request_exit()
     else:

@@ -32,6 +32,17 @@ class FrameStats:
         self.grain_sources: Counter[str] = Counter()
 
 
+def count_levels_of_detail(stats: FrameStats, renderer, head, cameras) -> None:
+    """How often the head's terrain level of detail changed, and how often the eyes would
+    have disagreed on it had each chosen its own (the cost the shared scene avoids)."""
+    key = renderer.terrain_level_of_detail(head.eye)
+    if key != stats.head_lod:
+        stats.head_lod_changes += 1
+        stats.head_lod = key
+    eye_keys = {renderer.terrain_level_of_detail(c.eye) for c in cameras}
+    stats.eye_lod_disagreements += len(eye_keys) > 1
+
+
 def summary(values: list[float]) -> dict:
     """Median and 99th percentile (None when nothing was measured)."""
     if not values:
@@ -82,10 +93,10 @@ def loop_report(loop) -> dict:
         "head_level_of_detail_changes": stats.head_lod_changes,
         "frames_where_eyes_disagree_on_level_of_detail": stats.eye_lod_disagreements,
         "final": {
-            "hours": round(loop.controls.hours, 4),
-            "day_speed": loop.controls.day_speed,
-            "playing": loop.controls.playing,
-            "mode": loop.controls.mode,
+            "hours": round(loop.view.state.hours, 4),
+            "day_speed": loop.view.state.day_speed,
+            "playing": loop.view.state.playing,
+            "mode": loop.view.state.mode,
             "preset": loop.presets[loop._index()][0],
         },
         "resources": loop.resources,

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from sand_editor.view import MAX_DAY_SPEED, advance, wrap_hours
+from sand_editor.view import MAX_DAY_SPEED, ViewState, wrap_hours
 from sand_editor.vr.xrmath import Pose
 
 STICK_DEAD_ZONE = 0.2
@@ -143,51 +143,44 @@ def commands_from_input(previous: InputState, current: InputState, dt_s: float) 
 
 @dataclass(frozen=True)
 class ViewerControls:
-    """What the user controls: the clock, the sand shown and the render mode.
+    """What the user controls besides the view (``sand_editor.view.ViewState``: the clock and
+    the mode): the sand shown and the mode the Lambert comparison returns to.
 
-    ``presets`` are names shown on the panel; ``preset_index`` picks one.
+    ``preset_count`` names are on the panel; ``preset_index`` picks one.
     """
 
-    hours: float = 10.0
-    day_speed: float = 0.0
-    playing: bool = False
     preset_index: int = 0
     preset_count: int = 1
-    mode: str = "full"
     previous_mode: str = "full"
 
-    def advanced(self, seconds: float) -> ViewerControls:
-        """The clock after ``seconds`` of real time (a paused day stands still)."""
-        if not self.playing:
-            return self
-        return replace(self, hours=advance(self.hours, seconds, self.day_speed))
 
-
-def apply_command(controls: ViewerControls, command: Command) -> ViewerControls:
-    """The state after ``command``; ``press`` is the workbench's to resolve and changes
+def apply_command(
+    controls: ViewerControls, view: ViewState, command: Command
+) -> tuple[ViewerControls, dict]:
+    """The controls after ``command``, and the changes it makes to the view (``ViewState``
+    fields, for ``ViewModel.update``); ``press`` is the workbench's to resolve and changes
     nothing here."""
     kind = command.kind
     if kind == "scrub":
-        return replace(controls, hours=wrap_hours(controls.hours + command.value))
+        return controls, {"hours": wrap_hours(view.hours + command.value)}
     if kind == "speed":
-        speed = min(max(controls.day_speed + command.value, 0.0), MAX_DAY_SPEED)
-        return replace(controls, day_speed=speed)
+        return controls, {"day_speed": min(max(view.day_speed + command.value, 0.0), MAX_DAY_SPEED)}
     if kind == "speed_step":
-        return replace(controls, day_speed=_step_speed(controls.day_speed, int(command.value)))
+        return controls, {"day_speed": _step_speed(view.day_speed, int(command.value))}
     if kind == "play_pause":
-        playing = not controls.playing
+        playing = not view.playing
         # Playing a day whose speed is 0 would look broken: start it at real-time-ish speed.
-        speed = controls.day_speed if controls.day_speed > 0 or not playing else SPEED_STEPS[3]
-        return replace(controls, playing=playing, day_speed=speed)
+        speed = view.day_speed if view.day_speed > 0 or not playing else SPEED_STEPS[3]
+        return controls, {"playing": playing, "day_speed": speed}
     if kind == "next_preset":
         count = max(controls.preset_count, 1)
-        return replace(controls, preset_index=(controls.preset_index + 1) % count)
+        return replace(controls, preset_index=(controls.preset_index + 1) % count), {}
     if kind == "toggle_lambert":
-        if controls.mode == COMPARISON_MODE:
+        if view.mode == COMPARISON_MODE:
             back = controls.previous_mode if controls.previous_mode != COMPARISON_MODE else "full"
-            return replace(controls, mode=back)
-        return replace(controls, mode=COMPARISON_MODE, previous_mode=controls.mode)
-    return controls
+            return controls, {"mode": back}
+        return replace(controls, previous_mode=view.mode), {"mode": COMPARISON_MODE}
+    return controls, {}
 
 
 def _step_speed(speed: float, steps: int) -> float:

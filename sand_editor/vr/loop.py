@@ -2,7 +2,8 @@
 
 A backend (``xr_backend.XrBackend`` or ``desktop.DesktopBackend``) supplies session states,
 frames with eye poses and fields of view, controller input and one framebuffer per eye; the loop
-does everything else: the link, the controls, the clock, new grains off the loop, the scene
+does everything else: the link, the controls, the view model (clock and mode, shared with the
+editor over the link), new grains off the loop, the scene
 chosen once per frame from the head, each eye through the one ``SandRenderer``, and the report.
 """
 
@@ -20,9 +21,10 @@ from sand_editor.preset import Preset, PresetError
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import presets_dir
+from sand_editor.view import CLOCK, ViewModel, ViewState
 from sand_editor.vr._files import read_pixels, save_side_by_side
-from sand_editor.vr._messages import answer_error, handle_link
-from sand_editor.vr._report import FrameStats, loop_report
+from sand_editor.vr._messages import LINK, answer_error, handle_link
+from sand_editor.vr._report import FrameStats, count_levels_of_detail, loop_report
 from sand_editor.vr._resources import gl_object_counts, resident_mb
 from sand_editor.vr.actions import (
     InputState,
@@ -39,6 +41,8 @@ from sand_editor.vr.xrmath import Fov, Pose, eye_camera
 NEAR_M = 0.005  # a few millimetres: the sand can be inspected from that close
 FAR_M = 20000.0
 STANDING_EYE_HEIGHT_M = 1.6
+INPUT = "input"  # the source of view changes made by the controllers, the keys or the panel
+TIME_FIELDS = frozenset({"hours", "day_speed", "playing"})
 TIME_MESSAGE_INTERVAL_S = 0.2  # at most ~5 time messages a second while scrubbing
 MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
 SESSION_NOTICE_S = 10.0  # waiting this long for the session to run: tell the user
@@ -66,14 +70,16 @@ class FrameLoop:
         self.ctx = windows.ctx
         self.stats = FrameStats()
         self.presets = _preset_list(options.preset, options.preset_label)
-        self.controls = ViewerControls(
-            hours=options.hours % 24.0,
-            day_speed=options.day_speed,
-            playing=options.day_speed > 0,
-            preset_index=0,
-            preset_count=len(self.presets),
-            mode=options.mode,
+        self.controls = ViewerControls(preset_index=0, preset_count=len(self.presets))
+        self.view = ViewModel(
+            ViewState(
+                hours=options.hours,
+                day_speed=options.day_speed,
+                playing=options.day_speed > 0,
+                mode=options.mode,
+            )
         )
+        self.view.connect(self._view_changed)
         self.renderer = SandRenderer(self.ctx)
         self.renderer.adapt_over_time = True
         self.workbench = Workbench(lambda x, z: float(self.renderer.terrain.height(x, z)))
@@ -118,9 +124,10 @@ class FrameLoop:
             pose = Pose((0.0, STANDING_EYE_HEIGHT_M, 0.0))
             camera = eye_camera(pose, Fov.symmetric(1.4, 4 / 3), NEAR_M, FAR_M)
             scene = self.renderer.prepare_frame(camera, show_sphere=False)
-            self.renderer.render(target, camera, sky_at(self.controls.hours), scene=scene)
+            state = self.view.state
+            self.renderer.render(target, camera, sky_at(state.hours), scene=scene)
             target.use()
-            self.workbench.draw(self.ctx, camera, (0, 0, 64, 48), self.controls, "", [pose])
+            self.workbench.draw(self.ctx, camera, (0, 0, 64, 48), state, "", [pose])
             finish_without_gil()
         finally:
             # Nothing may stay bound to a released framebuffer (the next draw restores it).
@@ -199,7 +206,7 @@ class FrameLoop:
         self.previous_time = frame.display_time_s
         self._take_new_material()
         self._apply_input(frame.input, dt)
-        self.controls = self.controls.advanced(dt)
+        self.view.tick(dt)
         if not frame.should_render or not frame.eyes:
             return None
         if self.world_offset is None:
@@ -207,9 +214,10 @@ class FrameLoop:
         eyes = [replace(e, pose=e.pose.translated(self.world_offset)) for e in frame.eyes]
         cameras = [eye_camera(e.pose, e.fov, NEAR_M, FAR_M) for e in eyes]
         head = eye_camera(_between(eyes), eyes[0].fov, NEAR_M, FAR_M)
-        self._count_levels_of_detail(head, cameras)
+        count_levels_of_detail(self.stats, self.renderer, head, cameras)
         scene = self.renderer.prepare_frame(head, show_sphere=False)
-        sky = sky_at(self.controls.hours)
+        state = self.view.state
+        sky = sky_at(state.hours)
         rays = [self._world_pose(hand.aim) for _, hand in frame.input.hands()]
         screenshot = self._wants_screenshot()
         images = []
@@ -218,14 +226,13 @@ class FrameLoop:
         for index, camera in enumerate(cameras):
             start = time.perf_counter()
             with self.backend.eye_target(index) as (target, viewport):
-                mode = self.controls.mode
                 exposure = self.renderer.render(
-                    target, camera, sky, mode, viewport=viewport, scene=scene, exposure=exposure
-                )["exposure"]
+                    target, camera, sky, state.mode, viewport=viewport, scene=scene,
+                    exposure=exposure,
+                )["exposure"]  # fmt: skip
                 target.use()
-                self.workbench.draw(
-                    self.ctx, camera, viewport, self.controls, self.presets[self._index()][0], rays
-                )
+                name = self.presets[self._index()][0]
+                self.workbench.draw(self.ctx, camera, viewport, state, name, rays)
                 finish_without_gil()
                 if screenshot:
                     images.append(read_pixels(target, viewport))
@@ -237,17 +244,6 @@ class FrameLoop:
         if screenshot:
             save_side_by_side(images, self.options.screenshot)
         return eye_ms
-
-    def _count_levels_of_detail(self, head, cameras) -> None:
-        """How often the head's terrain level of detail changed, and how often the eyes would
-        have disagreed on it had each chosen its own (the cost the shared scene avoids)."""
-        stats = self.stats
-        key = self.renderer.terrain_level_of_detail(head.eye)
-        if key != stats.head_lod:
-            stats.head_lod_changes += 1
-            stats.head_lod = key
-        eye_keys = {self.renderer.terrain_level_of_detail(c.eye) for c in cameras}
-        stats.eye_lod_disagreements += len(eye_keys) > 1
 
     def _after_submit(self, now: float, frame: Frame, regenerating: bool) -> None:
         stats = self.stats
@@ -292,29 +288,29 @@ class FrameLoop:
                 command = self.workbench.press(command.hand)
                 if command is None:
                     continue
-            self.controls = apply_command(self.controls, command)
+            self.controls, changes = apply_command(self.controls, self.view.state, command)
+            self.view.update(INPUT, **changes)
         self.previous_input = state
-        after = self.controls
-        if (after.hours, after.day_speed, after.playing) != (
-            before.hours,
-            before.day_speed,
-            before.playing,
-        ):
-            self.time_dirty_since = self.time_dirty_since or time.perf_counter()
-        if after.mode != before.mode:
-            self.link.send(type="mode", mode=after.mode)
-        if after.preset_index != before.preset_index:
+        if self.controls.preset_index != before.preset_index:
             self.worker.request(self.presets[self._index()][1])
 
+    def _view_changed(self, state: ViewState, names: frozenset, source) -> None:
+        """What the user changed here goes to the editor (the clock's ticks do not: the editor
+        runs its own clock; nor what the editor set)."""
+        if source in (LINK, CLOCK):
+            return
+        if names & TIME_FIELDS:
+            self.time_dirty_since = self.time_dirty_since or time.perf_counter()
+        if "mode" in names:
+            self.link.send(type="mode", mode=state.mode)
+
     def _send_time(self) -> None:
-        c = self.controls
+        c = self.view.state
         self.link.send(
             type="time", hours=round(c.hours, 4), day_speed=c.day_speed, playing=c.playing
         )
         self.last_time_message = time.perf_counter()
         self.time_dirty_since = None
-
-    # ---- the link -------------------------------------------------------------------------
 
     # ---- grains -------------------------------------------------------------------------------
 

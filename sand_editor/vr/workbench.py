@@ -15,8 +15,8 @@ from PIL import Image, ImageDraw, ImageFont
 from sand_editor.gl import GLObjects, program, render_state, set_matrix
 from sand_editor.render.camera import Camera
 from sand_editor.render.terrain import _grid_index, sphere_mesh
-from sand_editor.view import format_time
-from sand_editor.vr.actions import Command, ViewerControls
+from sand_editor.view import ViewState, format_time
+from sand_editor.vr.actions import Command
 
 TABLE_HEIGHT_M = 0.85  # top of the block above the ground
 TABLE_SIZE_M = (0.7, 0.45)  # width (x), depth (z)
@@ -190,21 +190,21 @@ class Workbench:
 
     # ---- drawing ---------------------------------------------------------------------------
 
-    def panel_text(self, controls: ViewerControls, preset_name: str) -> tuple:
+    def panel_text(self, state: ViewState, preset_name: str) -> tuple:
         """What the panel shows: it is drawn again only when this changes."""
         return (
-            format_time(controls.hours),
-            "playing" if controls.playing else "paused",
-            _speed_text(controls.day_speed),
+            format_time(state.hours),
+            "playing" if state.playing else "paused",
+            _speed_text(state.day_speed),
             f"sand: {preset_name}",
-            f"mode: {controls.mode}",
-            "pause" if controls.playing else "play",
+            f"mode: {state.mode}",
+            "pause" if state.playing else "play",
             tuple(sorted(name for name in self.hovered.values() if name)),
         )
 
-    def panel_image(self, controls: ViewerControls, preset_name: str) -> Image.Image:
+    def panel_image(self, state: ViewState, preset_name: str) -> Image.Image:
         """The panel as an RGB image (top row first)."""
-        clock, state, speed, sand, mode, play, hovered = self.panel_text(controls, preset_name)
+        clock, state, speed, sand, mode, play, hovered = self.panel_text(state, preset_name)
         width, height = PANEL_PIXELS
         image = Image.new("RGB", PANEL_PIXELS, (28, 24, 20))
         draw = ImageDraw.Draw(image)
@@ -229,7 +229,7 @@ class Workbench:
         ctx: moderngl.Context,
         camera: Camera,
         viewport: tuple[int, int, int, int],
-        controls: ViewerControls,
+        state: ViewState,
         preset_name: str,
         rays: list,
     ) -> None:
@@ -237,9 +237,9 @@ class Workbench:
         framebuffer's ``viewport``."""
         if self._ctx is None:
             self._create(ctx)
-        key = self.panel_text(controls, preset_name)
+        key = self.panel_text(state, preset_name)
         if key != self._panel_key:
-            image = self.panel_image(controls, preset_name).transpose(Image.FLIP_TOP_BOTTOM)
+            image = self.panel_image(state, preset_name).transpose(Image.FLIP_TOP_BOTTOM)
             self._texture.write(image.tobytes())
             self._texture.build_mipmaps()
             self._panel_key = key

@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from sand_editor.view import MAX_DAY_SPEED
+from sand_editor.view import MAX_DAY_SPEED, ViewModel, ViewState
 from sand_editor.vr.actions import (
     ACTIONS,
     BINDINGS,
@@ -121,34 +121,48 @@ def test_buttons_and_trigger_act_on_the_press_only():
     assert commands_from_input(down, down, 0.01) == []
 
 
+def _apply(view: ViewState, kind: str, value: float = 0.0, controls=None):
+    """The view after a command, through the view model as the frame loop applies it."""
+    model = ViewModel(view)
+    _controls, changes = apply_command(controls or ViewerControls(), view, Command(kind, value))
+    model.update("input", **changes)
+    return model.state
+
+
 def test_scrub_wraps_the_clock_and_speed_stays_in_range():
-    controls = ViewerControls(hours=23.5)
-    assert apply_command(controls, Command("scrub", 1.0)).hours == pytest.approx(0.5)
-    assert apply_command(controls, Command("scrub", -24.0)).hours == pytest.approx(23.5)
-    fast = apply_command(controls, Command("speed", 1e9))
+    view = ViewState(hours=23.5)
+    assert _apply(view, "scrub", 1.0).hours == pytest.approx(0.5)
+    assert _apply(view, "scrub", -24.0).hours == pytest.approx(23.5)
+    fast = _apply(view, "speed", 1e9)
     assert fast.day_speed == MAX_DAY_SPEED
-    assert apply_command(fast, Command("speed", -1e9)).day_speed == 0.0
-    stepped = apply_command(ViewerControls(day_speed=0.5), Command("speed_step", 1))
+    assert _apply(fast, "speed", -1e9).day_speed == 0.0
+    stepped = _apply(ViewState(day_speed=0.5), "speed_step", 1)
     assert stepped.day_speed == SPEED_STEPS[SPEED_STEPS.index(0.5) + 1]
-    assert apply_command(ViewerControls(day_speed=24.0), Command("speed_step", 1)).day_speed == 24
+    assert _apply(ViewState(day_speed=24.0), "speed_step", 1).day_speed == 24
 
 
 def test_play_starts_a_stopped_clock_and_the_day_advances():
-    playing = apply_command(ViewerControls(hours=12.0), Command("play_pause"))
+    playing = _apply(ViewState(hours=12.0, day_speed=0.0), "play_pause")
     assert playing.playing and playing.day_speed > 0
-    later = playing.advanced(2.0)
+    model = ViewModel(playing)
+    model.tick(2.0)
+    later = model.state
     assert later.hours == pytest.approx(12.0 + 2.0 * playing.day_speed)
-    paused = apply_command(later, Command("play_pause"))
-    assert paused.advanced(10.0).hours == later.hours
+    paused = _apply(later, "play_pause")
+    model = ViewModel(paused)
+    assert model.tick(10.0) == frozenset() and model.state.hours == later.hours
+    assert paused.day_speed == playing.day_speed  # kept while paused
 
 
 def test_lambert_toggle_returns_to_the_mode_before():
-    glints = ViewerControls(mode="glints")
-    compared = apply_command(glints, Command("toggle_lambert"))
-    assert compared.mode == "lambert"
-    assert apply_command(compared, Command("toggle_lambert")).mode == "glints"
+    glints = ViewState(mode="glints")
+    controls, changes = apply_command(ViewerControls(), glints, Command("toggle_lambert"))
+    assert changes == {"mode": "lambert"} and controls.previous_mode == "glints"
+    compared = ViewState(mode="lambert")
+    assert apply_command(controls, compared, Command("toggle_lambert"))[1] == {"mode": "glints"}
 
 
 def test_next_preset_cycles():
     controls = ViewerControls(preset_index=2, preset_count=3)
-    assert apply_command(controls, Command("next_preset")).preset_index == 0
+    after, changes = apply_command(controls, ViewState(), Command("next_preset"))
+    assert after.preset_index == 0 and changes == {}

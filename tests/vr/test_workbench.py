@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sand_editor.vr.actions import ViewerControls
+from sand_editor.view import ViewState
 from sand_editor.vr.workbench import BUTTONS, PANEL_PIXELS, Workbench, box_mesh, button_at
 from sand_editor.vr.xrmath import Pose
 
@@ -67,28 +67,28 @@ def test_button_at_between_buttons_is_none():
 
 
 def test_panel_shows_time_and_hovered_button(bench):
-    controls = ViewerControls(hours=16.5, day_speed=0.5, playing=True, mode="lambert")
-    plain = np.asarray(bench.panel_image(controls, "red-desert"))
+    state = ViewState(hours=16.5, day_speed=0.5, playing=True, mode="lambert")
+    plain = np.asarray(bench.panel_image(state, "red-desert"))
     assert plain.shape == (PANEL_PIXELS[1], PANEL_PIXELS[0], 3)
     bench.hovered["right"] = "sand"
-    hovered = np.asarray(bench.panel_image(controls, "red-desert"))
+    hovered = np.asarray(bench.panel_image(state, "red-desert"))
     assert np.any(plain != hovered)
-    other_time = np.asarray(bench.panel_image(ViewerControls(hours=4.0), "red-desert"))
-    assert np.any(other_time[:100] != np.asarray(bench.panel_image(ViewerControls(), "x"))[:100])
+    other_time = np.asarray(bench.panel_image(ViewState(hours=4.0), "red-desert"))
+    assert np.any(other_time[:100] != np.asarray(bench.panel_image(ViewState(), "x"))[:100])
 
 
 @pytest.mark.parametrize(
     "hours,clock", [(0.0, "00:00"), (16.999, "16:59"), (23.9999, "23:59"), (24.0, "00:00")]
 )
 def test_the_clock_reads_the_current_minute(bench, hours, clock):
-    assert bench.panel_text(ViewerControls(hours=hours), "x")[0] == clock
+    assert bench.panel_text(ViewState(hours=hours), "x")[0] == clock
 
 
 def test_the_panel_is_drawn_again_only_when_what_it_shows_changes(bench):
-    same_minute = [ViewerControls(hours=10.0 + i * 0.001) for i in range(5)]
+    same_minute = [ViewState(hours=10.0 + i * 0.001) for i in range(5)]
     assert len({bench.panel_text(c, "x") for c in same_minute}) == 1
-    assert bench.panel_text(ViewerControls(hours=10.02), "x") != bench.panel_text(
-        ViewerControls(hours=10.0), "x"
+    assert bench.panel_text(ViewState(hours=10.02), "x") != bench.panel_text(
+        ViewState(hours=10.0), "x"
     )
 
 
