@@ -127,15 +127,25 @@ const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance
 const float FACING_BAND = 0.15;
 
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
-// their squares), as the grains themselves give it when each is resolved: at four normals
-// whose nx, ny hold that mean and variance exactly (n̄ ± √2·σ along each axis). Unit normals
-// rather than slopes: bounded, and the cosine of the light is linear in them. The same average
-// at every scale, so that the far range's diffuse light is the close range's.
+// their squares), as the grains themselves give it when each is resolved: at the mean normal
+// and four more whose nx, ny hold that mean and the variance along two axes exactly. Unit
+// normals rather than slopes: bounded, and the cosine of the light is linear in them. The axes
+// are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
+// turning away from the eye) depends on the eye: fixed texture axes would make the average
+// jump where the eye's azimuth crosses them. The same average at every scale, so that the far
+// range's diffuse light is the close range's.
 vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L) {
     vec2 m = normals.xy;
-    vec2 spread = DIFFUSE_RING * sqrt(max(normals.zw - m * m, 0.0));
-    vec2 points[5] = vec2[5](m, m + vec2(spread.x, 0.0), m - vec2(spread.x, 0.0),
-                             m + vec2(0.0, spread.y), m - vec2(0.0, spread.y));
+    vec2 variance = max(normals.zw - m * m, 0.0);
+    vec2 towards = to_tangent(v, s).xy;
+    float reach = length(towards);
+    vec2 along = reach > 1e-5 ? towards / reach : vec2(1.0, 0.0);
+    vec2 across = vec2(-along.y, along.x);
+    // The variance along a unit axis a, without the covariance (not kept): a·a weighted.
+    vec2 spread_along = along * (DIFFUSE_RING * sqrt(dot(along * along, variance)));
+    vec2 spread_across = across * (DIFFUSE_RING * sqrt(dot(across * across, variance)));
+    vec2 points[5] = vec2[5](m, m + spread_along, m - spread_along,
+                             m + spread_across, m - spread_across);
     vec3 sum = vec3(0.0);
     for (int i = 0; i < 5; ++i) {
         vec2 p = points[i];
