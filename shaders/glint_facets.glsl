@@ -1,7 +1,7 @@
 // Glints as the sun mirrored in grain facets, drawn per footprint cell (included by
 // sand_surface.glsl after common.glsl).
 //
-// A grain's surface is a mosaic of facets of about FACET_SIZE_M. A facet that mirrors the sun
+// A grain's surface is a mosaic of facets of the preset's facet size. A facet that mirrors the sun
 // into the eye shows the sun's radiance times quartz's Fresnel reflectance, R = F·E/Ω (E the
 // sun's irradiance, Ω its solid angle), over its own area: a pixel of area A holding k such
 // facets of area a gets k·R·a/A. The material's expected glint radiance L (the footprint's
@@ -17,7 +17,9 @@
 // patches and their counts where they are; another half vector (the other eye) falls into
 // another bin and draws other facets, as in life.
 
-const float FACET_SIZE_M = 200.0e-6;       // edge of one facet of a grain (metres)
+uniform float u_facet_size;  // edge of one facet of a grain, µm
+
+float facet_size_m() { return u_facet_size * 1.0e-6; }
 const float LIGHT_ANGULAR_RADIUS = 0.00465; // the sun's (and the moon's) real angular radius
 
 // Half vectors spanned by a light disc of angular radius r around the mirror direction have

@@ -229,7 +229,7 @@ float mirror_chance(float density, HalfVector h) {
 // `draw`, the expectation alone: the pixel's footprint's expected glint.
 vec2 sparkling_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
     if (!draw) return expected_factors(f, h0, h1, 1.0);
-    float facet_texels = FACET_SIZE_M * u_uv_scale * u_texture_size;
+    float facet_texels = facet_size_m() * u_uv_scale * u_texture_size;
     Patches p = footprint_patches(f.tc, f.dx, f.dy, u_texture_size, facet_texels);
     vec2 per_facet = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1)) * p.pixel_facets;
     if (!p.valid || !(max(per_facet.x, per_facet.y) > 0.0)) return vec2(0.0);

@@ -239,6 +239,10 @@ FIELDS: tuple[FieldSpec, ...] = (
              "How far the tiny facets of a grain's surface tilt from its shape (Beckmann α): "
              "low is glassy, with small, sharp, bright glints; high is frosted, with broad, "
              "dim ones."),
+    _shading("facet_size", "float", 20.0, 1000.0, 200.0, "Facet size",
+             "Edge of the tiny mirror-like facets of a grain's surface: small facets give many "
+             "faint sparkles, large ones few bright ones, with the same light on average.",
+             unit="µm"),
     _shading("clear_grains", "float", 0.0, 1.0, 1.0, "Clear grains",
              "Share of the top layer's grains that are clear enough to mirror the sun: how "
              "many glints there are (0: none, 1: every grain).", cost="moments"),

@@ -47,6 +47,7 @@ def test_defaults_are_the_reference_saved_material():
         "generation.jitter": 1.0,
         "generation.period": 36,
         "shading.facet_roughness": 0.219,
+        "shading.facet_size": 200.0,
         "shading.clear_grains": 1.0,
         "shading.grain_ior": 1.458,
         "shading.sss": 0.733,

@@ -58,7 +58,7 @@ vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
 // mirroring slopes (mirroring share over the chance per unit of density), so that it compares
 // with the other filters one to one.
 vec2 ground_truth_factors(Footprint f, HalfVector h0, HalfVector h1, bool draw) {
-    float per_tile = max(floor(1.0 / (FACET_SIZE_M * u_uv_scale) + 0.5), 1.0);
+    float per_tile = max(floor(1.0 / (facet_size_m() * u_uv_scale) + 0.5), 1.0);
     vec2 centre = f.tc * per_tile;
     vec2 dx = f.dx * per_tile, dy = f.dy * per_tile;
     vec2 extent = 0.5 * (abs(dx) + abs(dy));
