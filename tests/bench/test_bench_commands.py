@@ -85,11 +85,14 @@ def test_render_bench_writes_every_key(tmp_path):
             assert np.isfinite(list(row.values())).all()
         for row in data["per_distance"][distance].values():
             assert np.isfinite(row["energy_rel_error"])
-    # Sparkles keep the per-pixel spread that the expected value loses, close and mid range.
-    for distance in ("1.0",):
+    # Sparkles keep the per-pixel spread that the expected value loses, close and mid range;
+    # paper-default's physically bounded glints sparkle in a few pixels in ten thousand, which
+    # the quick bench's 160×120 frame holds at 0.3 m.
+    for distance in ("0.3", "1.0"):
         rows = data["sparkle"][distance]
         assert rows["ours"]["cv"] > 3 * rows["expected"]["cv"]
-        assert rows["ours"]["sparkle_fraction"] > rows["expected"]["sparkle_fraction"]
+    rows = data["sparkle"]["0.3"]
+    assert rows["ours"]["sparkle_fraction"] > rows["expected"]["sparkle_fraction"]
     assert np.isfinite(data["cost_vs_reference_7x7_close"])
     assert data["cost_vs_reference_7x7_close"] > 0
     # The look: sparkles in whole frames close up, none at 30 m.
