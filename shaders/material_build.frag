@@ -3,7 +3,8 @@
 // Builds level 0 of the sand material's filterable textures from the generated grains. Every
 // quantity written here is linear in what the renderer averages, so the GPU's mipmaps (box
 // averages) stay exact footprint averages at every level:
-//   albedo:  linear RGB of the grain
+//   albedo:  linear RGB of the grain; alpha: its relief height (sand_relief.glsl), 1 at the top
+//            of the tallest grain, lower on deeper layers, 0 in gaps
 //   glint:   w, w·bx, w·by, w·bx·by   (w: the light a clear grain gets, else 0; b = slope of the grain
 //            normal, n ∝ (bx, by, 1))
 //   spread:  w·bx², w·by², bx, by
@@ -20,6 +21,10 @@ uniform vec3 u_layer_colors[LAYER_COLOURS];  // linear, layers × 4 palette entr
 uniform uvec3 u_colour_thresholds;   // 16-bit colour pick bounds (noise.colour_thresholds)
 uniform float u_clear_grains;        // share of the grains that are clear
 uniform float u_layer_light[MAX_LAYERS];  // linear share of the light reaching each layer
+
+// The relief height is the grain's profile over the tallest a profile gets (PROFILE_TOP), times
+// this for each layer deeper (a deeper layer's grains lie lower).
+const float LAYER_RELIEF = 0.7;
 
 layout(location = 0) out vec4 out_albedo;
 layout(location = 1) out vec4 out_glint;
@@ -38,7 +43,9 @@ void main() {
 
     vec3 albedo = u_base_color;
     float w = 0.0;
+    float relief = 0.0;
     if (layer >= 0) {
+        relief = normal_height.w / PROFILE_TOP * pow(LAYER_RELIEF, float(layer));
         uint pick = lowbias32(word) >> 16u;
         int colour = int(pick >= u_colour_thresholds.x) + int(pick >= u_colour_thresholds.y)
                    + int(pick >= u_colour_thresholds.z);
@@ -50,7 +57,7 @@ void main() {
     }
     vec3 n = normal_height.xyz;
     vec2 b = n.xy / n.z;   // n.z ≥ the profile's minimum over |∇n|: never 0
-    out_albedo = vec4(albedo, 1.0);
+    out_albedo = vec4(albedo, clamp(relief, 0.0, 1.0));
     out_glint = vec4(w, w * b, w * b.x * b.y);
     out_spread = vec4(w * b * b, b);
     out_hole = w * exp(-0.5 * dot(b, b) / HOLE_SCALE2);

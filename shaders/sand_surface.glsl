@@ -91,6 +91,7 @@ void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope, out vec4 no
 }
 
 #include "sand_far.glsl"
+#include "sand_relief.glsl"
 
 // The diffuse light of the sand for one light on a shading normal n with albedo kd, the same
 // close up (the footprint's albedo and mean grain normal) as far away (the tile's, on the
@@ -207,14 +208,24 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     f.dx = dFdx(f.tc);
     f.dy = dFdy(f.tc);
     Shaded c;
+    vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
+    c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
+    lights_in_tangent(s, L, f);
+    float relief = relief_weight(texels.x);
+    if (relief > 0.0) {
+        // The grains at their depth for this eye, and the light that reaches where it looks.
+        Relief r = relief_at(f.tc, normalize(f.to_eye), f.light0, f.light1, relief, c.lod);
+        f.tc = r.tc;
+        L.sun_radiance *= r.sun;
+        L.moon_radiance *= r.moon;
+        f.lit0 = f.lit0 && r.sun > 0.0;
+        f.lit1 = f.lit1 && r.moon > 0.0;
+    }
     vec3 albedo;
     vec2 slope;
     vec4 normals;
     footprint_surface(f, albedo, slope, normals);
     c.micro_normal = to_world(normalize(vec3(slope, 1.0)), s);
-    vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
-    c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
-    lights_in_tangent(s, L, f);
     HalfVector h[2];
     half_vectors_at(f, vec2(0.0), h[0], h[1]);
     vec2 densities = glint_factors(f, h[0], h[1], !reference_look);

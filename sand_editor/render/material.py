@@ -16,7 +16,13 @@ import numpy as np
 
 from sand_editor.generator import SandTextures, check_size, gl_generator
 from sand_editor.generator._gl import GpuSandTextures
-from sand_editor.generator.noise import MAX_LAYERS, NoiseConstants, colour_thresholds
+from sand_editor.generator.noise import (
+    MAX_LAYERS,
+    PROFILE_OFFSET,
+    PROFILE_SCALE,
+    NoiseConstants,
+    colour_thresholds,
+)
 from sand_editor.gl import (
     GLObjects,
     build_mipmaps_without_gil,
@@ -44,6 +50,8 @@ HOLE_SCALE2 = 0.25
 # Constants the material's shaders share with Python, as #defines: never copied by hand.
 SHADER_DEFINES = {
     "HOLE_SCALE2": repr(HOLE_SCALE2),
+    # The tallest a grain's profile gets: the top of the relief (material_build.frag).
+    "PROFILE_TOP": repr(PROFILE_OFFSET + PROFILE_SCALE),
     "LAYER_COLOURS": MAX_LAYERS * 4,
     "MAX_LAYERS": MAX_LAYERS,
 }
@@ -312,6 +320,7 @@ class SandMaterial:
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
             **sphere_constants(self.average_albedo),
             u_texture_size=float(self.texture_size),
+            u_grain_cell=1.0 / float(self.grains_generation.period),
             u_max_lod=self.max_lod,
             u_close_cutoff=float(self.close_cutoff),
             u_close_limit=self.close_limit,

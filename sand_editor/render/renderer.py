@@ -88,6 +88,7 @@ class SandRenderer:
         # Views that run on (the editor's, the headset's) adapt over time, as an eye does;
         # otherwise each frame takes its metered exposure at once, the same on every run.
         self.adapt_over_time = False
+        self.relief = True  # grains at their depth and self-shadowed up close (sand_relief.glsl)
         self.adaptation = EyeAdaptation()
         self._last_metered: float | None = None
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
@@ -244,6 +245,7 @@ class SandRenderer:
             self.material.bind(prog, 0)
         values = {
             "u_mode": mode_index(mode),
+            "u_relief": int(self.relief),
             "u_eye": _vec(camera.position),
             "u_sun_direction": _vec(sky.sun_direction),
             "u_sun_radiance": _vec(sky.sun_radiance),

@@ -1,0 +1,79 @@
+// Grain relief up close (included by sand_surface.glsl after its uniforms): the grains stand at
+// their depth and shade each other along the light, from the height the generator makes.
+//
+// The material's albedo texture holds each texel's relief height in its alpha, 1 for the top
+// of the tallest grain and 0 in the gaps (material_build.frag); its mipmaps average it, so a
+// coarse footprint sees a smoothed surface. The grains sink below the shading point's plane by
+// at most RELIEF_DEPTH_CELLS grain cells. The eye's ray is marched down through the height
+// field in a bounded number of steps (parallax occlusion mapping), each eye with its own view
+// vector, so each sees the grains at their own depth; from where it lands, a ray towards the
+// light finds how far the grains in front rise above it (a soft shadow). Both fade in as a
+// grain cell grows from RELIEF_FADE_PX.x to .y pixels, and nothing of it runs below that, so mid
+// and far range pay nothing.
+
+uniform float u_grain_cell;  // a grain cell's edge, in tiles (1 / the generator's period)
+uniform int u_relief;        // 1: grains with relief; 0: flat (the relief's cost measured apart)
+
+const float RELIEF_DEPTH_CELLS = 0.5;
+const vec2 RELIEF_FADE_PX = vec2(2.0, 5.0);
+const int RELIEF_STEPS = 12;
+const int SHADOW_STEPS = 6;
+const float SHADOW_SOFTNESS = 6.0;  // per unit of depth: how quickly a shadow darkens
+const float MIN_RELIEF_COSINE = 0.15;  // grazing rays are cut at this angle's reach
+
+struct Relief {
+    vec2 tc;          // where the eye's ray meets the grains, in tiles
+    float sun;        // the share of the sun's (and the moon's) light that reaches it
+    float moon;
+};
+
+float relief_height(vec2 tc, float lod) {
+    return textureLod(u_albedo, tc, lod).a;
+}
+
+// The weight of the relief for a footprint whose texel footprint is `texels` wide.
+float relief_weight(float texels_per_pixel) {
+    if (u_relief == 0) return 0.0;
+    float cell_px = u_grain_cell * u_texture_size / max(texels_per_pixel, 1e-6);
+    return smoothstep(RELIEF_FADE_PX.x, RELIEF_FADE_PX.y, cell_px);
+}
+
+// Visibility of a light from the point at `depth` below the top, `tc`, along tangent-space l.
+float relief_shadow(vec2 tc, float depth, vec3 l, float depth_tc, float lod) {
+    if (l.z <= 0.0) return 1.0;
+    vec2 step_tc = l.xy / max(l.z, MIN_RELIEF_COSINE) * depth_tc * depth / float(SHADOW_STEPS);
+    float blocked = 0.0;
+    for (int i = 1; i <= SHADOW_STEPS; ++i) {
+        float ray = depth * (1.0 - float(i) / float(SHADOW_STEPS));
+        float ground = 1.0 - relief_height(tc + step_tc * float(i), lod);
+        blocked = max(blocked, (ray - ground) * (1.0 - float(i - 1) / float(SHADOW_STEPS)));
+    }
+    return 1.0 - clamp(SHADOW_SOFTNESS * blocked, 0.0, 1.0);
+}
+
+// The eye's ray through the grains (tangent-space `e` towards the eye, `l0`, `l1` towards the
+// lights), at weight w in (0, 1].
+Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, float w, float lod) {
+    float depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell * w;
+    vec2 step_tc = -e.xy / max(e.z, MIN_RELIEF_COSINE) * depth_tc / float(RELIEF_STEPS);
+    float step_depth = 1.0 / float(RELIEF_STEPS);
+    float depth = 0.0, ground = 1.0 - relief_height(tc, lod);
+    float previous_depth = 0.0, previous_gap = ground;
+    vec2 at = tc;
+    for (int i = 0; i < RELIEF_STEPS && depth < ground; ++i) {
+        previous_depth = depth;
+        previous_gap = ground - depth;
+        at += step_tc;
+        depth += step_depth;
+        ground = 1.0 - relief_height(at, lod);
+    }
+    // Between the last step above the grains and the first below: where the two lines cross.
+    float below = depth - ground;
+    float t = below > 0.0 ? previous_gap / max(previous_gap + below, 1e-6) : 1.0;
+    float hit_depth = mix(previous_depth, depth, t);
+    Relief r;
+    r.tc = tc + step_tc * (hit_depth / step_depth);
+    r.sun = mix(1.0, relief_shadow(r.tc, hit_depth, l0, depth_tc, lod), w);
+    r.moon = mix(1.0, relief_shadow(r.tc, hit_depth, l1, depth_tc, lod), w);
+    return r;
+}

@@ -1,0 +1,115 @@
+"""Grain relief up close: each eye sees the grains at their depth (parallax), grains shade the
+gaps along a low sun, and none of it reaches the frame where grains are a few pixels or less."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sand_editor.preset import Preset
+from sand_editor.render.camera import Camera, camera_at_distance
+from sand_editor.render.sky import sky_at
+from sand_editor.resources import bundled_preset
+
+pytestmark = pytest.mark.gl
+
+W, H = 320, 180
+IPD_M = 0.063
+
+
+@pytest.fixture(scope="module")
+def renderer(gl_ctx):
+    from sand_editor.render.material import SandMaterial
+    from sand_editor.render.renderer import SandRenderer
+
+    material = SandMaterial(gl_ctx, texture_size=512)
+    material.update(Preset.load(bundled_preset("paper-default")))
+    r = SandRenderer(gl_ctx)
+    r.set_material(material)
+    yield r
+    r.relief = True
+    r.release()
+    material.release()
+
+
+def _camera(renderer, distance, pitch):
+    terrain = renderer.terrain
+    return camera_at_distance(distance, pitch, W / H, lambda x, z: float(terrain.height(x, z)))
+
+
+def _hdr(renderer) -> np.ndarray:
+    texture = renderer.post.scene_texture
+    data = np.frombuffer(texture.read(), dtype=np.float16).astype(np.float32)
+    return data.reshape(texture.size[1], texture.size[0], 4)[::-1, :, :3]
+
+
+def _draw(renderer, camera, hours, relief, mode="close"):
+    renderer.relief = relief
+    image = renderer.render_to_array(W, H, camera, sky_at(hours), mode)
+    return image, _hdr(renderer)
+
+
+def _eye(camera: Camera, side: float) -> Camera:
+    """The camera moved sideways by ``side`` metres along its own right."""
+    right = camera.view[0, :3].astype(np.float64)
+    view = camera.view.astype(np.float64).copy()
+    view[0, 3] -= side  # the world moves left in view space as the eye moves right
+    return Camera(view=view, projection=camera.projection, eye=camera.eye + side * right)
+
+
+def _disparity(left: np.ndarray, right: np.ndarray, reach: int = 60) -> int:
+    """The horizontal shift (px) that best lays the right eye's central band on the left's."""
+    rows = slice(H // 2, H // 2 + 40)
+    a = left[rows].astype(np.float64).mean(axis=2)
+    b = right[rows].astype(np.float64).mean(axis=2)
+    core = slice(reach, W - reach)
+    errors = [np.mean((a[:, core] - b[:, reach + s : W - reach + s]) ** 2)
+              for s in range(-reach, reach + 1)]  # fmt: skip
+    return int(np.argmin(errors)) - reach
+
+
+def test_each_eye_sees_the_grains_deeper_than_the_flat_plane(renderer, gl_clean):
+    # At 1 cm a grain's depth is a tenth of the distance: a tenth less disparity. Two eyes a
+    # thirtieth of a person's apart keep the shift within the frame.
+    camera = _camera(renderer, 0.01, 60.0)
+    eyes = [_eye(camera, side) for side in (-IPD_M / 60, IPD_M / 60)]
+    flat = [_draw(renderer, eye, 12.0, False)[0] for eye in eyes]
+    deep = [_draw(renderer, eye, 12.0, True)[0] for eye in eyes]
+    flat_shift, deep_shift = _disparity(*flat), _disparity(*deep)
+    # Farther points have less disparity between two parallel eyes: the grains lie below the
+    # plane, so the relief's disparity is the smaller.
+    assert flat_shift != 0
+    assert abs(deep_shift) < abs(flat_shift) - 1, (flat_shift, deep_shift)
+
+
+def test_a_low_sun_leaves_the_gaps_between_grains_in_shadow(renderer, gl_clean):
+    camera = _camera(renderer, 0.05, 60.0)
+    _, flat = _draw(renderer, camera, 18.0, False)
+    _, deep = _draw(renderer, camera, 18.0, True)
+    ground = slice(H // 2, H)
+    flat_lum, deep_lum = flat[ground].mean(axis=2), deep[ground].mean(axis=2)
+    assert np.isfinite(deep).all()
+    # Percentiles, not the mean: a few sparkles carry much of the mean and move with parallax.
+    # The darker quarter of the ground grows darker, and so does the middle of it ...
+    assert np.percentile(deep_lum, 25) < 0.9 * np.percentile(flat_lum, 25)
+    assert np.median(deep_lum) < 0.95 * np.median(flat_lum)
+    # ... while the noon sun, from above, leaves the light as it was.
+    _, flat_noon = _draw(renderer, camera, 12.0, False)
+    _, deep_noon = _draw(renderer, camera, 12.0, True)
+    noon = np.median(deep_noon[ground].mean(axis=2)) / np.median(flat_noon[ground].mean(axis=2))
+    assert noon > 0.95
+
+
+@pytest.mark.parametrize("distance", [3.0, 30.0])
+def test_where_grains_are_a_few_pixels_the_relief_changes_nothing(renderer, gl_clean, distance):
+    camera = _camera(renderer, distance, 35.0)
+    flat, _ = _draw(renderer, camera, 16.5, False, "full")
+    deep, _ = _draw(renderer, camera, 16.5, True, "full")
+    assert np.array_equal(flat, deep)
+
+
+@pytest.mark.parametrize("pitch", [1.0, 5.0, 90.0])
+@pytest.mark.parametrize("hours", [6.05, 18.0, 12.0])
+def test_grazing_views_and_suns_give_finite_relief(renderer, gl_clean, pitch, hours):
+    _, hdr = _draw(renderer, _camera(renderer, 0.002, pitch), hours, True, "full")
+    assert np.isfinite(hdr).all()
