@@ -31,18 +31,24 @@ vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v) {
     return brdf * u_sphere_inverse_albedo;
 }
 
-// The macro normal with ripples across the dune slope and fine detail.
+// How far the dune slope turns the ripples: the wind's direction on the surface plus this times
+// the (unnormalised) downhill direction, which is 0 on flat ground and grows with the slope, so
+// the ripples bend over the dunes without a seam where the slope's direction turns.
+const float RIPPLE_BEND = 0.6;
+
+// The macro normal with ripples across the wind and fine detail.
 vec3 rippled_normal(SurfacePoint s) {
-    // Ripple crests run along the contour lines: the ripple axis is the down-slope direction.
+    // The ripple maps' crests run along v and the wind blows along +u: the frame's first axis
+    // is the way the wind blows (from the compass bearing u_wind_direction), on the surface.
+    float from = radians(u_wind_direction);
+    vec3 wind = vec3(-sin(from), 0.0, cos(from));  // world: x east, −z north
     vec3 up = vec3(0.0, 1.0, 0.0);
     vec3 downhill = s.normal - dot(s.normal, up) * up;
     float slope = length(downhill);
-    vec2 axis_t = vec2(1.0, 0.0);
-    if (slope > 1e-4) {
-        vec2 a = vec2(dot(downhill, s.tangent), dot(downhill, s.bitangent));
-        float len = length(a);
-        axis_t = len > 1e-6 ? a / len : axis_t;
-    }
+    vec3 along = wind + RIPPLE_BEND * downhill;
+    vec2 a = vec2(dot(along, s.tangent), dot(along, s.bitangent));
+    float len = length(a);
+    vec2 axis_t = len > 1e-6 ? a / len : vec2(1.0, 0.0);
     mat2 frame = mat2(axis_t, vec2(-axis_t.y, axis_t.x));  // columns: along, across
     vec2 ripple_uv = transpose(frame) * s.uv;
     float steep = smoothstep(0.2, 0.45, slope);

@@ -39,6 +39,7 @@ uniform float u_absorption;
 uniform float u_transmission;
 uniform float u_transmission_roughness;
 uniform float u_ripple_strength;
+uniform float u_wind_direction;  // compass degrees the wind comes from
 uniform float u_detail_strength;
 uniform float u_sigmoid_a;
 uniform float u_sigmoid_b;

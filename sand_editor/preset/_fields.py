@@ -261,6 +261,10 @@ FIELDS: tuple[FieldSpec, ...] = (
              "Spread of light transmitted towards a viewer facing the light (1: broad)."),
     _shading("ripple_strength", "float", 0.0, 1.0, 0.053, "Ripple strength",
              "Strength of the sand-ripple normal maps at a distance."),
+    _shading("wind_direction", "float", 0.0, 360.0, 30.0, "Wind from",
+             "Compass direction the wind comes from (0 north, 90 east; 30 is a trade wind from "
+             "the north-north-east): ripple crests lie across it, bending a little over the "
+             "dunes.", unit="°"),
     _shading("detail_strength", "float", 0.0, 1.0, 0.046, "Detail strength",
              "Strength of the fine detail normal map at a distance."),
     _shading("sigmoid_a", "float", 0.01, 100.0, 2.0, "Blend sharpness",

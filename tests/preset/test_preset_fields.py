@@ -56,6 +56,7 @@ def test_defaults_are_the_reference_saved_material():
         "shading.transmission": 0.045,
         "shading.transmission_roughness": 0.0,
         "shading.ripple_strength": 0.053,
+        "shading.wind_direction": 30.0,
         "shading.detail_strength": 0.046,
         "shading.sigmoid_a": 2.0,
         "shading.sigmoid_b": 0.0,

@@ -23,7 +23,9 @@ def renderer(gl_ctx):
     from sand_editor.render.renderer import SandRenderer
 
     material = SandMaterial(gl_ctx, texture_size=512)
-    material.update(Preset.load(bundled_preset("paper-default")))
+    # Without ripples: the grains' own relief is what is measured, not where a ripple faces.
+    flat = {"shading.ripple_strength": 0.0, "shading.detail_strength": 0.0}
+    material.update(Preset.load(bundled_preset("paper-default")).replace(**flat))
     r = SandRenderer(gl_ctx)
     r.set_material(material)
     yield r
@@ -91,13 +93,13 @@ def test_a_low_sun_leaves_the_gaps_between_grains_in_shadow(renderer, gl_clean):
     assert np.isfinite(deep).all()
     # Percentiles, not the mean: a few sparkles carry much of the mean and move with parallax.
     # The darker quarter of the ground grows darker, and so does the middle of it ...
-    assert np.percentile(deep_lum, 25) < 0.9 * np.percentile(flat_lum, 25)
-    assert np.median(deep_lum) < 0.95 * np.median(flat_lum)
+    assert np.percentile(deep_lum, 25) < 0.92 * np.percentile(flat_lum, 25)  # measured 0.87
+    assert np.median(deep_lum) < 0.96 * np.median(flat_lum)  # measured 0.92
     # ... while the noon sun, from above, leaves the light as it was.
     _, flat_noon = _draw(renderer, camera, 12.0, False)
     _, deep_noon = _draw(renderer, camera, 12.0, True)
     noon = np.median(deep_noon[ground].mean(axis=2)) / np.median(flat_noon[ground].mean(axis=2))
-    assert noon > 0.95
+    assert noon > 0.97  # measured 1.03
 
 
 @pytest.mark.parametrize("distance", [3.0, 30.0])
