@@ -36,6 +36,31 @@ vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v) {
 // the ripples bend over the dunes without a seam where the slope's direction turns.
 const float RIPPLE_BEND = 0.6;
 
+uniform int u_sharp_ripples;  // 1: ripples filtered along the footprint (below); 0: isotropically
+const int RIPPLE_TAPS = 4;
+
+// A ripple map's mean slope over the pixel's footprint (uv derivatives dx, dy). A distant
+// footprint is a long streak across the ripples: filtered isotropically, as mipmaps are, it
+// would be blurred to its longest axis and the ripples would fade where they are still seen
+// across the view. Here up to RIPPLE_TAPS taps along the longer axis, each filtered to the
+// footprint's width, average it as its own shape: the filtering the GPU's anisotropic sampler
+// does, whose CPU rasterizer's version costs far more.
+vec2 ripple_slopes(sampler2D map, vec2 uv, vec2 dx, vec2 dy) {
+    if (u_sharp_ripples == 0) return textureGrad(map, uv, dx, dy).xy;
+    bool x_longer = dot(dx, dx) >= dot(dy, dy);
+    vec2 major = x_longer ? dx : dy, minor = x_longer ? dy : dx;
+    float ratio = length(major) / max(length(minor), 1e-12);
+    float taps = clamp(ceil(ratio), 1.0, float(RIPPLE_TAPS));
+    vec2 step_uv = major / taps;
+    vec2 sum = vec2(0.0);
+    for (int i = 0; i < RIPPLE_TAPS; ++i) {
+        if (float(i) >= taps) break;
+        vec2 at = uv + step_uv * (float(i) + 0.5 - 0.5 * taps);
+        sum += textureGrad(map, at, step_uv, minor).xy;
+    }
+    return sum / taps;
+}
+
 // The macro normal with ripples across the wind and fine detail.
 vec3 rippled_normal(SurfacePoint s) {
     // The ripple maps' crests run along v and the wind blows along +u: the frame's first axis
@@ -52,7 +77,9 @@ vec3 rippled_normal(SurfacePoint s) {
     mat2 frame = mat2(axis_t, vec2(-axis_t.y, axis_t.x));  // columns: along, across
     vec2 ripple_uv = transpose(frame) * s.uv;
     float steep = smoothstep(0.2, 0.45, slope);
-    vec2 grad_r = mix(texture(u_ripple_shallow, ripple_uv).xy, texture(u_ripple_steep, ripple_uv).xy, steep);
+    vec2 dx = transpose(frame) * dFdx(s.uv), dy = transpose(frame) * dFdy(s.uv);
+    vec2 grad_r = mix(ripple_slopes(u_ripple_shallow, ripple_uv, dx, dy),
+                      ripple_slopes(u_ripple_steep, ripple_uv, dx, dy), steep);
     vec2 grad = frame * grad_r;
     grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
     vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));

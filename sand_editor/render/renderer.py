@@ -89,6 +89,7 @@ class SandRenderer:
         # otherwise each frame takes its metered exposure at once, the same on every run.
         self.adapt_over_time = False
         self.relief = True  # grains at their depth and self-shadowed up close (sand_relief.glsl)
+        self.sharp_ripples = True  # ripples filtered along each pixel's footprint (sand_far.glsl)
         self.adaptation = EyeAdaptation()
         self._last_metered: float | None = None
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
@@ -246,6 +247,7 @@ class SandRenderer:
         values = {
             "u_mode": mode_index(mode),
             "u_relief": int(self.relief),
+            "u_sharp_ripples": int(self.sharp_ripples),
             "u_eye": _vec(camera.position),
             "u_sun_direction": _vec(sky.sun_direction),
             "u_sun_radiance": _vec(sky.sun_radiance),

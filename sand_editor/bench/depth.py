@@ -1,0 +1,169 @@
+"""``sand-editor bench depth``: our frames against the same renderer supersampled 8×8, per
+distance, with each depth feature on and off — speed against error.
+
+Each view (paper-default, 16:30, pitch 15°, the issue's 320×180) is rendered at its size and at
+8× its size, the latter averaged down 8×8 in linear light and encoded again: the truth a frame
+of that size should show. FLIP (NVIDIA's perceptual metric, PyPI ``flip-evaluator``) compares
+the two over the ground (the frame's lower half, below any horizon). One fixed exposure, from
+the light, serves both, so the metering of frames of different sizes does not enter. The
+features: the grains' relief (``SandRenderer.relief``) and the ripples filtered along each
+pixel's footprint (``SandRenderer.sharp_ripples``); each row gives the frame with all of them,
+and without one.
+Up close the sparkles are stochastic per pixel by design: their FLIP is reported, not a target.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+DISTANCES = (0.05, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0)
+QUICK_DISTANCES = (0.05, 10.0)
+SIZE = (320, 180)
+SUPERSAMPLE = 8
+TIME = 16.5
+PITCH_DEG = 15.0
+FEATURES = ("relief", "sharp_ripples")
+REPEATS = 3  # timed frames per setting, the median kept
+
+
+def _decode(encoded: np.ndarray) -> np.ndarray:
+    c = encoded.astype(np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _encode(linear: np.ndarray) -> np.ndarray:
+    c = np.clip(linear, 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+
+
+def supersampled(image: np.ndarray, factor: int) -> np.ndarray:
+    """An sRGB uint8 frame averaged down ``factor``×``factor`` in linear light, as sRGB floats
+    in [0, 1]."""
+    h, w = image.shape[0] // factor, image.shape[1] // factor
+    linear = _decode(image[: h * factor, : w * factor]).reshape(h, factor, w, factor, 3)
+    return _encode(linear.mean(axis=(1, 3)))
+
+
+def flip_error(reference: np.ndarray, test: np.ndarray) -> float:
+    """Mean FLIP of two sRGB frames in [0, 1] over their lower half (the ground)."""
+    import flip_evaluator
+
+    half = reference.shape[0] // 2
+    ref = np.ascontiguousarray(reference[half:], dtype=np.float32)
+    tst = np.ascontiguousarray(test[half:], dtype=np.float32)
+    _, mean, _ = flip_evaluator.evaluate(ref, tst, "LDR", applyMagma=False)
+    return float(mean)
+
+
+class Views:
+    """One renderer and material, drawing the bench's views at any size."""
+
+    def __init__(self, texture_size: int) -> None:
+        from sand_editor.gl import standalone_context
+        from sand_editor.preset import Preset
+        from sand_editor.render.exposure import light_exposure
+        from sand_editor.render.material import SandMaterial
+        from sand_editor.render.renderer import SandRenderer
+        from sand_editor.render.sky import sky_at
+        from sand_editor.resources import bundled_preset
+
+        self.ctx = standalone_context()
+        self.material = SandMaterial(self.ctx, texture_size)
+        self.material.update(Preset.load(bundled_preset("paper-default")))
+        self.renderer = SandRenderer(self.ctx)
+        self.renderer.set_material(self.material)
+        self.sky = sky_at(TIME)
+        self.exposure = light_exposure(self.sky)
+
+    def frame(self, distance: float, size: tuple[int, int], **features) -> tuple[np.ndarray, float]:
+        from sand_editor.render.camera import camera_at_distance
+
+        for name in FEATURES:
+            setattr(self.renderer, name, features.get(name, True))
+        width, height = size
+        terrain = self.renderer.terrain
+        camera = camera_at_distance(
+            distance, PITCH_DEG, width / height, lambda x, z: float(terrain.height(x, z))
+        )
+        start = time.perf_counter()
+        image = self.renderer.render_to_array(width, height, camera, self.sky, "full",
+                                              exposure=self.exposure)  # fmt: skip
+        return image, (time.perf_counter() - start) * 1e3
+
+    def timed(self, distance: float, **features) -> tuple[np.ndarray, float]:
+        self.frame(distance, SIZE, **features)  # warm: compiled, allocated
+        runs = [self.frame(distance, SIZE, **features) for _ in range(REPEATS)]
+        return runs[-1][0], float(np.median([ms for _, ms in runs]))
+
+    def release(self) -> None:
+        self.renderer.release()
+        self.material.release()
+
+
+def run(quick: bool = False) -> dict:
+    from sand_editor.bench.generator import machine_description
+
+    views = Views(512 if quick else 1024)
+    machine = machine_description(views.ctx)
+    rows = []
+    try:
+        for distance in QUICK_DISTANCES if quick else DISTANCES:
+            large = (SIZE[0] * SUPERSAMPLE, SIZE[1] * SUPERSAMPLE)
+            truth = supersampled(views.frame(distance, large)[0], SUPERSAMPLE)
+            row = {"distance_m": distance}
+            for label, features in [("all", {}), *((f"no_{f}", {f: False}) for f in FEATURES)]:
+                image, ms = views.timed(distance, **features)
+                row[label] = {"flip": flip_error(truth, image / 255.0), "ms": ms}
+            rows.append(row)
+            print(f"  depth at {distance} m", file=sys.stderr, flush=True)
+    finally:
+        views.release()
+    return {"machine": machine, "size": list(SIZE), "supersample": SUPERSAMPLE, "rows": rows}
+
+
+def format_table(results: dict) -> str:
+    lines = [
+        f"Depth: FLIP over the ground against the same renderer 8×8 supersampled, "
+        f"{results['size'][0]}×{results['size'][1]}, 16:30, pitch 15; "
+        f"{results['machine']['gl_renderer']}, {results['machine']['cpu_count']} CPUs",
+        "",
+        "| distance | FLIP | FLIP, no relief | FLIP, isotropic ripples | ms | ms, no relief "
+        "| ms, isotropic ripples |",
+        "| ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for row in results["rows"]:
+        cells = [row["all"], row["no_relief"], row["no_sharp_ripples"]]
+        flips = " | ".join(f"{c['flip']:.3f}" for c in cells)
+        costs = " | ".join(f"{c['ms']:.0f}" for c in cells)
+        lines.append(f"| {row['distance_m']:g} m | {flips} | {costs} |")
+    return "\n".join(lines)
+
+
+def before_after(path: str, distances=(0.05, 10.0)) -> None:
+    """Per distance (rows): every depth feature off, all on, and the 8×8 supersampled truth."""
+    from PIL import Image
+
+    views = Views(1024)
+    width, height = SIZE
+    sheet = Image.new("RGB", (3 * width, height * len(distances)))
+    try:
+        for row, distance in enumerate(distances):
+            off = views.frame(distance, SIZE, **{name: False for name in FEATURES})[0]
+            on = views.frame(distance, SIZE)[0]
+            large = (width * SUPERSAMPLE, height * SUPERSAMPLE)
+            truth = supersampled(views.frame(distance, large)[0], SUPERSAMPLE)
+            truth = (truth * 255.0 + 0.5).astype(np.uint8)
+            for column, image in enumerate((off, on, truth)):
+                sheet.paste(Image.fromarray(image), (column * width, row * height))
+    finally:
+        views.release()
+    sheet.save(path)
+
+
+def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:
+    from sand_editor.bench._report import report
+
+    return report(run(quick), format_table, lambda _r, p: before_after(p), json_path, plot_path)
