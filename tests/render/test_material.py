@@ -314,10 +314,18 @@ def test_sparkles_flicker_no_more_than_the_ground_truth_under_sub_pixel_motion(f
             fine_probe.glint_filter = "ours"
         return np.abs(np.diff(frames, axis=0)).mean() / frames.mean()
 
-    ours, truth = flicker("ours"), flicker("ground-truth")
+    # Pooled over three ripple orientations: this small frame's ratio alone moves between 0.97
+    # and 1.21 with which ripples it sees (measured at five winds).
+    ours, truth = [], []
+    for wind in (30.0, 150.0, 270.0):
+        fine_probe.material.update(Preset().replace(**{"shading.wind_direction": wind}))
+        ours.append(flicker("ours"))
+        truth.append(flicker("ground-truth"))
+    fine_probe.material.update(Preset())
+    ours, truth = float(np.mean(ours)), float(np.mean(truth))
     assert truth > 0.2  # sparkles do cross pixel edges as the camera moves
-    # As much as the facets themselves, within this small frame's noise; far from a redraw of
-    # every sparkle in every frame (2 on this scale).
+    # As much as the facets themselves (pooled: 1.08), far from a redraw of every sparkle in
+    # every frame (2 on this scale).
     assert ours < 1.2 * truth, (ours, truth)
 
 
