@@ -29,22 +29,15 @@ FEATURES = ("relief", "sharp_ripples")
 REPEATS = 3  # timed frames per setting, the median kept
 
 
-def _decode(encoded: np.ndarray) -> np.ndarray:
-    c = encoded.astype(np.float64) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def _encode(linear: np.ndarray) -> np.ndarray:
-    c = np.clip(linear, 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
-
-
 def supersampled(image: np.ndarray, factor: int) -> np.ndarray:
     """An sRGB uint8 frame averaged down ``factor``×``factor`` in linear light, as sRGB floats
     in [0, 1]."""
+    from sand_editor.generator.noise import linear_to_srgb, srgb_to_linear
+
     h, w = image.shape[0] // factor, image.shape[1] // factor
-    linear = _decode(image[: h * factor, : w * factor]).reshape(h, factor, w, factor, 3)
-    return _encode(linear.mean(axis=(1, 3)))
+    encoded = image[: h * factor, : w * factor] / 255.0
+    linear = srgb_to_linear(encoded).reshape(h, factor, w, factor, 3)
+    return linear_to_srgb(linear.mean(axis=(1, 3)))
 
 
 def flip_error(reference: np.ndarray, test: np.ndarray) -> float:
