@@ -17,6 +17,7 @@ from typing import Any
 
 MAX_DAY_SPEED = 24.0  # simulated hours per real second
 CLOCK = "clock"  # the source of changes made by the running clock (ViewModel.tick)
+TIME_FIELDS = frozenset({"hours", "day_speed", "playing"})  # the clock's fields of ViewState
 REAL_TIME = 1.0 / 3600.0  # the day speed of a real day
 DEFAULT_DAY_SPEED = 0.25  # what playing a day starts at: a quarter of an hour a second
 MIN_DISTANCE_M = 1e-3
@@ -155,7 +156,7 @@ class ViewModel:
         )
         if not changed:
             return changed
-        if changed & {"hours", "day_speed", "playing"}:
+        if changed & TIME_FIELDS:
             self._ticked = time.monotonic()  # the clock runs on from the value just set
         self._state = new
         if not self._blocked:

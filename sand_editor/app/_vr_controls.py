@@ -12,7 +12,7 @@ from sand_editor.app._vr import VrLink
 from sand_editor.app._vr_exit import LOG_HEADING
 from sand_editor.app._vr_grains import SharedTiles
 from sand_editor.preset import Preset
-from sand_editor.view import CLOCK, MODES, ViewState
+from sand_editor.view import CLOCK, MODES, TIME_FIELDS, ViewState
 from sand_editor.vr.link import (
     EXIT_INTERRUPTED,
     EXIT_NO_HEADSET,
@@ -30,7 +30,6 @@ BUTTON_STYLE = (
     " border-radius: 4px; background: #f6e7d2; }"
     " QToolButton:hover { background: #efd6b2; } QToolButton:pressed { background: #e4c393; }"
 )
-_TIME_FIELDS = frozenset({"hours", "day_speed", "playing"})
 OFFER_DESKTOP = frozenset({EXIT_NO_RUNTIME, EXIT_NO_HEADSET})
 
 
@@ -233,7 +232,7 @@ class VrControls(QObject):
         # The viewer runs its own clock: only set times go to it, not the ticks of ours.
         if source is self or source == CLOCK or not self.link.running:
             return
-        if names & _TIME_FIELDS:
+        if names & TIME_FIELDS:
             self.link.send_time(hours=state.hours, day_speed=state.day_speed, playing=state.playing)
         if "mode" in names:
             self.link.send_mode(state.mode)

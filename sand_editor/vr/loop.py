@@ -21,7 +21,7 @@ from sand_editor.preset import Preset, PresetError
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import presets_dir
-from sand_editor.view import CLOCK, ViewModel, ViewState
+from sand_editor.view import CLOCK, TIME_FIELDS, ViewModel, ViewState
 from sand_editor.vr._files import read_pixels, save_side_by_side
 from sand_editor.vr._messages import LINK, answer_error, handle_link
 from sand_editor.vr._report import FrameStats, count_levels_of_detail, loop_report
@@ -42,7 +42,6 @@ NEAR_M = 0.005  # a few millimetres: the sand can be inspected from that close
 FAR_M = 20000.0
 STANDING_EYE_HEIGHT_M = 1.6
 INPUT = "input"  # the source of view changes made by the controllers, the keys or the panel
-TIME_FIELDS = frozenset({"hours", "day_speed", "playing"})
 TIME_MESSAGE_INTERVAL_S = 0.2  # at most ~5 time messages a second while scrubbing
 MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
 SESSION_NOTICE_S = 10.0  # waiting this long for the session to run: tell the user
