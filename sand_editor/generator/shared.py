@@ -51,6 +51,13 @@ def _views(buffer, size: int) -> dict[str, np.ndarray]:
     return views
 
 
+def _write(buffer, textures: SandTextures) -> None:
+    """The tile's arrays into ``buffer``; the views into it end with the call, so that the
+    segment can be closed after."""
+    for name, view in _views(buffer, textures.size).items():
+        view[...] = getattr(textures, name)
+
+
 class SharedTile:
     """A tile written into a new segment, which this object owns: ``close()`` unlinks it."""
 
@@ -62,11 +69,7 @@ class SharedTile:
         self.name = self._memory.name
         _MADE_HERE.add(self.name)
         try:
-            for name, view in _views(self._memory.buf, self.size).items():
-                view = view.view()
-                view.flags.writeable = True
-                view[...] = getattr(textures, name)
-                del view
+            _write(self._memory.buf, textures)
         except BaseException:
             self.close()
             raise
