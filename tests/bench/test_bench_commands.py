@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from _bench_run import run_bench
 
 from sand_editor.bench.generator import count_regions, normal_errors
 
@@ -42,12 +41,8 @@ def test_count_regions_wraps_and_separates_keys():
 @pytest.mark.gl
 def test_bench_command_writes_table_json_and_plot(tmp_path):
     json_path, plot_path = tmp_path / "bench.json", tmp_path / "bench.png"
-    result = subprocess.run(
-        [sys.executable, "-m", "sand_editor", "bench", "generator", "--quick", "--sizes", "64",
-         "--json", str(json_path), "--plot", str(plot_path)],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
+    paths = ("--json", str(json_path), "--plot", str(plot_path))
+    result = run_bench("generator", "--sizes", "64", *paths, timeout=300)
     assert "| 64² | ours, GL |" in result.stdout
     data = json.loads(json_path.read_text())
     rows = data["sizes"]["64"]
@@ -66,12 +61,7 @@ def test_bench_command_writes_table_json_and_plot(tmp_path):
 @pytest.mark.slow
 def test_render_bench_writes_every_key(tmp_path):
     json_path = tmp_path / "render.json"
-    result = subprocess.run(
-        [sys.executable, "-m", "sand_editor", "bench", "render", "--quick",
-         "--json", str(json_path)],
-        capture_output=True, text=True, timeout=900,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
+    result = run_bench("render", "--json", str(json_path), timeout=900)
     assert "| 1.0 m | ours |" in result.stdout
     data = json.loads(json_path.read_text())
     for key in ("sparkle", "per_distance", "look", "cost_vs_reference_7x7_close",
@@ -104,12 +94,8 @@ def test_render_bench_writes_every_key(tmp_path):
 @pytest.mark.slow
 def test_appearance_bench_writes_its_sweep_and_contact_sheet(tmp_path):
     json_path, plot_path = tmp_path / "appearance.json", tmp_path / "sheet.png"
-    result = subprocess.run(
-        [sys.executable, "-m", "sand_editor", "bench", "appearance", "--quick",
-         "--json", str(json_path), "--plot", str(plot_path)],
-        capture_output=True, text=True, timeout=900,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
+    paths = ("--json", str(json_path), "--plot", str(plot_path))
+    result = run_bench("appearance", *paths, timeout=900)
     assert "| black-volcanic |" in result.stdout
     rows = json.loads(json_path.read_text())["rows"]
     assert {row["preset"] for row in rows} >= {"paper-default", "random-3"}

@@ -4,11 +4,10 @@ sees what it should, and the command writes its table and JSON with each feature
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from _bench_run import run_bench
 
 from sand_editor.bench.depth import flip_error, supersampled
 
@@ -37,12 +36,7 @@ def test_flip_is_zero_for_the_same_frame_and_grows_with_the_difference():
 @pytest.mark.slow
 def test_depth_bench_writes_its_table_and_each_features_effect(tmp_path):
     json_path = tmp_path / "depth.json"
-    result = subprocess.run(
-        [sys.executable, "-m", "sand_editor", "bench", "depth", "--quick",
-         "--json", str(json_path)],
-        capture_output=True, text=True, timeout=900,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr[-3000:]
+    result = run_bench("depth", "--json", str(json_path), timeout=900)
     assert "| 10 m |" in result.stdout
     rows = {row["distance_m"]: row for row in json.loads(json_path.read_text())["rows"]}
     assert set(rows) == {0.05, 10.0}

@@ -10,6 +10,7 @@ from sand_editor.preset import Preset
 from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import bundled_preset
+from tests.render.test_renderer import scene_hdr
 
 pytestmark = pytest.mark.gl
 
@@ -39,16 +40,10 @@ def _camera(renderer, distance, pitch):
     return camera_at_distance(distance, pitch, W / H, lambda x, z: float(terrain.height(x, z)))
 
 
-def _hdr(renderer) -> np.ndarray:
-    texture = renderer.post.scene_texture
-    data = np.frombuffer(texture.read(), dtype=np.float16).astype(np.float32)
-    return data.reshape(texture.size[1], texture.size[0], 4)[::-1, :, :3]
-
-
 def _draw(renderer, camera, hours, relief, mode="close"):
     renderer.relief = relief
     image = renderer.render_to_array(W, H, camera, sky_at(hours), mode)
-    return image, _hdr(renderer)
+    return image, scene_hdr(renderer)[::-1, :, :3]  # rows top-down, as the image's
 
 
 def _eye(camera: Camera, side: float) -> Camera:
