@@ -223,11 +223,12 @@ def set_uniform(program, name: str, value) -> None:
 
 
 def set_matrix(program, name: str, matrix) -> None:
-    """Set a ``mat4`` uniform from a matrix as numpy writes it (rows first; GLSL reads columns),
-    by the rules of :func:`set_uniform`: the one way matrices reach a program."""
+    """Set a ``mat4`` uniform (or an array of them, from a stack of matrices) from matrices as
+    numpy writes them (rows first; GLSL reads columns), by the rules of :func:`set_uniform`:
+    the one way matrices reach a program."""
     member = _member(program, name)
     if member is not None:
-        member.write(np.asarray(matrix, dtype=np.float32).T.tobytes())
+        member.write(np.swapaxes(np.asarray(matrix, dtype=np.float32), -1, -2).tobytes())
 
 
 def program(ctx: moderngl.Context, name: str, defines: Mapping[str, object] | None = None):

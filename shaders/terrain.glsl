@@ -6,6 +6,9 @@
 uniform mat4 u_view_projection;
 uniform vec3 u_origin;
 
+#include "lighting.glsl"
+#include "shadows.glsl"
+
 #if defined VERTEX_SHADER
 
 in vec3 a_position;
@@ -23,13 +26,13 @@ void main() {
     v_normal = a_normal;
     v_tangent = a_tangent;
     v_uv = a_uv;
+    shadow_coordinates(a_position, a_normal);
     gl_Position = u_view_projection * vec4(a_position, 1.0);
 }
 
 #elif defined FRAGMENT_SHADER
 
 // The material uses screen-space derivatives, which exist only in fragment shaders.
-#include "lighting.glsl"
 #include "sand_surface.glsl"
 
 uniform int u_mode;
@@ -50,7 +53,7 @@ void main() {
     s.tangent = normalize(v_tangent - s.normal * dot(s.normal, v_tangent));
     s.bitangent = cross(s.tangent, s.normal);
     s.uv = v_uv;
-    vec3 radiance = shade_sand(s, scene_lighting(), u_mode);
+    vec3 radiance = shade_sand(s, shadowed(scene_lighting(), v_world, s.normal), u_mode);
     // Half floats overflow to inf past 65504, and bloom would smear an inf over the frame.
     out_radiance = vec4(clamp(radiance, 0.0, MAX_HALF), 1.0);
 }

@@ -34,6 +34,7 @@ from sand_editor.gl import (
 )
 from sand_editor.preset import FIELDS, Preset
 from sand_editor.render.modes import mode_defines
+from sand_editor.render.shadows import CASCADES
 
 DEFAULT_TEXTURE_SIZE = 1024
 GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
@@ -54,6 +55,7 @@ SHADER_DEFINES = {
     "PROFILE_TOP": repr(PROFILE_OFFSET + PROFILE_SCALE),
     "LAYER_COLOURS": MAX_LAYERS * 4,
     "MAX_LAYERS": MAX_LAYERS,
+    "SHADOW_CASCADES": CASCADES,
 }
 
 

@@ -4,6 +4,7 @@ command line all draw through this class."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass
@@ -24,6 +25,7 @@ from sand_editor.render.exposure import EyeAdaptation, light_exposure, metered_e
 from sand_editor.render.material import surface_defines
 from sand_editor.render.modes import check_mode, mode_index
 from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain
+from sand_editor.render.shadows import SunShadows
 from sand_editor.render.sky import SKY_GRADIENT_EXPONENT, SkyState
 from sand_editor.render.terrain import DuneTerrain, sphere_mesh
 
@@ -34,29 +36,39 @@ MOON_ANGULAR_RADIUS = math.radians(0.6)
 TERRAIN_SEGMENTS = 96
 _VERTEX_FORMAT = "3f 3f 3f 2f"
 _VERTEX_ATTRIBUTES = ("a_position", "a_normal", "a_tangent", "a_uv")
+_POSITION_FORMAT = "3f 8x4"  # the shadow casters read the position alone
+_SERIALS = itertools.count()
 
 
 class _Mesh:
-    """Vertex arrays of a mesh dict (``position`` relative to ``origin``), one per program."""
+    """Vertex arrays of a mesh dict (``position`` relative to ``origin``), one per surface
+    program and one of positions for the shadow maps. ``serial`` names this mesh for good (a
+    rebuilt mesh is another one); ``top`` is its highest point (world y); ``indices`` the
+    length of its index buffer."""
 
-    def __init__(self, ctx: moderngl.Context, programs, mesh: dict, origin: np.ndarray) -> None:
+    def __init__(self, ctx: moderngl.Context, programs, depth_program, mesh: dict, origin) -> None:
         vertices = np.hstack([mesh["position"], mesh["normal"], mesh["tangent"], mesh["uv"]])
         self.origin = origin
+        self.serial = next(_SERIALS)
+        self.top = float(origin[1] + np.max(mesh["position"][:, 1]))
+        # A mesh of rings (the terrain's): their radii about ring_center, so that a shadow map
+        # draws only the rings that can cast into it.
+        self.rings = mesh.get("rings")
+        self.ring_center = mesh.get("ring_center")
         self.buffer = ctx.buffer(vertices.astype(np.float32).tobytes())
         self.index = ctx.buffer(mesh["index"].astype(np.uint32).tobytes())
-        self.vaos = [
-            ctx.vertex_array(
-                prog,
-                [(self.buffer, _VERTEX_FORMAT, *_VERTEX_ATTRIBUTES)],
-                index_buffer=self.index,
-                index_element_size=4,
-            )
-            for prog in programs
-        ]
-        self.triangles = len(mesh["index"]) // 3
+
+        def vao(prog, layout):
+            buffers = [(self.buffer, *layout)]
+            return ctx.vertex_array(prog, buffers, index_buffer=self.index, index_element_size=4)
+
+        self.vaos = [vao(prog, (_VERTEX_FORMAT, *_VERTEX_ATTRIBUTES)) for prog in programs]
+        self.depth_vao = vao(depth_program, (_POSITION_FORMAT, "a_position"))
+        self.indices = len(mesh["index"])
+        self.triangles = self.indices // 3
 
     def release(self) -> None:
-        for obj in (*self.vaos, self.buffer, self.index):
+        for obj in (*self.vaos, self.depth_vao, self.buffer, self.index):
             obj.release()
 
 
@@ -68,6 +80,7 @@ class FrameScene:
 
     terrain: _Mesh
     objects: tuple[_Mesh, ...] = ()
+    head: Camera | None = None  # what the shadow maps are fitted to
 
 
 class SandRenderer:
@@ -90,6 +103,7 @@ class SandRenderer:
         self.adapt_over_time = False
         self.relief = True  # grains at their depth and self-shadowed up close (sand_relief.glsl)
         self.sharp_ripples = True  # ripples filtered along each pixel's footprint (sand_far.glsl)
+        self.shadows = True  # the sun and the moon cast shadows (render/shadows.py)
         self.adaptation = EyeAdaptation()
         self._last_metered: float | None = None
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
@@ -101,6 +115,9 @@ class SandRenderer:
         self._surfaces = (self._surface, self._surface_far)
         self._sky = keep(program(ctx, "sky.glsl"))
         self._sky_vao = keep(ctx.vertex_array(self._sky, []))
+        self._shadows = keep(SunShadows(ctx))
+        self._shadow_frame = None
+        self._shadow_scene = None  # (scene, sky) the shadow frame was made for
         self._terrain_mesh: _Mesh | None = None
         self._terrain_key = None
         self._sphere_mesh: _Mesh | None = None
@@ -117,7 +134,7 @@ class SandRenderer:
         """A fixed object in the sand material: ``mesh`` as ``terrain.sphere_mesh`` makes it,
         positions relative to ``origin`` (world, float64)."""
         origin = np.asarray(origin, dtype=np.float64)
-        self._fixed_objects.append(_Mesh(self.ctx, self._surfaces, mesh, origin))
+        self._fixed_objects.append(self._mesh(mesh, origin))
 
     # ---- frame ------------------------------------------------------------------------------
 
@@ -130,7 +147,7 @@ class SandRenderer:
             sphere = self._sphere(head)
             if sphere is not None:
                 objects.append(sphere)
-        return FrameScene(self._terrain(head.eye), tuple(objects))
+        return FrameScene(self._terrain(head.eye), tuple(objects), head)
 
     def render(
         self,
@@ -162,18 +179,20 @@ class SandRenderer:
         if scene is None:
             scene = self.prepare_frame(camera, show_sphere)
         hdr_target = self.post.scene_framebuffer
+        self._shadow_frame = self._shadow_maps(scene, camera, sky, debug, viewport[2:])
+        times["shadows_ms"] = _lap(start)
 
         with drawing_into(ctx, hdr_target):
             ctx.viewport = (0, 0, *self.post.size)
             hdr_target.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
             if not debug:
                 self._draw_sky(camera, sky)
-            times["sky_ms"] = _lap(start)
+            times["sky_ms"] = _lap(start) - times["shadows_ms"]
             with render_state(ctx, moderngl.DEPTH_TEST):
                 self._prepare_surface(camera, sky, mode)
                 for mesh in (scene.terrain, *scene.objects):
                     self._draw(mesh, camera)
-            times["surface_ms"] = _lap(start) - times["sky_ms"]
+            times["surface_ms"] = _lap(start) - times["shadows_ms"] - times["sky_ms"]
         if exposure is None:
             # Metered from this frame's scene and adapted over time, as an eye does.
             now = time.perf_counter()
@@ -192,7 +211,8 @@ class SandRenderer:
             bloom_strength=0.0 if debug else self.bloom_strength,
             tone_map=not debug,
         )
-        times["post_ms"] = _lap(start) - times["sky_ms"] - times["surface_ms"]
+        drawn = ("shadows_ms", "sky_ms", "surface_ms")
+        times["post_ms"] = _lap(start) - sum(times[k] for k in drawn)
         times["exposure"] = exposure
         return times
 
@@ -237,6 +257,28 @@ class SandRenderer:
         with render_state(self.ctx):
             self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
 
+    def _shadow_maps(self, scene: FrameScene, camera: Camera, sky: SkyState, debug: bool, size):
+        """The frame's shadow maps (drawn once for the frame's head; None when off)."""
+        if not self.shadows or debug:
+            self._shadow_scene = None
+            return None
+        if self._shadow_scene is not None and all(
+            a is b for a, b in zip(self._shadow_scene, (scene, sky), strict=True)
+        ):
+            return self._shadow_frame  # the frame's other eye: the same maps
+        self._shadow_scene = (scene, sky)
+        head = scene.head or camera
+        meshes = (scene.terrain, *scene.objects)
+        ground = float(self.terrain.height(head.eye[0], head.eye[2]))
+        # Anything in the scene stands at most this far above the lowest ground in view.
+        rise = max(mesh.top for mesh in meshes) + self.terrain.height_bound
+        return self._shadows.update(meshes, head, sky, head.eye[1] - ground, rise, size)
+
+    @property
+    def shadow_maps_drawn(self) -> int:
+        """How many frames drew their shadow maps (the others kept the last ones)."""
+        return self._shadows.maps_drawn
+
     def _prepare_surface(self, camera: Camera, sky: SkyState, mode: str) -> None:
         for prog in self._surfaces:
             self._prepare_program(prog, camera, sky, mode)
@@ -257,6 +299,7 @@ class SandRenderer:
         }
         for name, value in values.items():
             set_uniform(prog, name, value)
+        self._shadows.bind(prog, self._shadow_frame)
 
     def _draw(self, mesh: _Mesh, camera: Camera) -> None:
         # Vertices are offsets from the mesh origin, and so is the eye in this matrix: small
@@ -267,6 +310,7 @@ class SandRenderer:
         for prog, vao in zip(self._surfaces, mesh.vaos, strict=True):
             set_matrix(prog, "u_view_projection", view_projection)
             set_uniform(prog, "u_origin", _vec(mesh.origin))
+            self._shadows.bind_mesh(prog, self._shadow_frame, mesh.origin)
             vao.render(moderngl.TRIANGLES)
 
     # ---- meshes -----------------------------------------------------------------------------
@@ -293,7 +337,7 @@ class SandRenderer:
             mesh = self.terrain.radial_mesh(center, inner, outer, TERRAIN_SEGMENTS, origin=origin)
             if self._terrain_mesh is not None:
                 self._terrain_mesh.release()
-            self._terrain_mesh = _Mesh(self.ctx, self._surfaces, mesh, origin)
+            self._terrain_mesh = self._mesh(mesh, origin)
             self._terrain_key = key
             self.terrain_meshes_built += 1
         return self._terrain_mesh
@@ -316,9 +360,12 @@ class SandRenderer:
             mesh = sphere_mesh(center, radius, 32, origin=center)
             if self._sphere_mesh is not None:
                 self._sphere_mesh.release()
-            self._sphere_mesh = _Mesh(self.ctx, self._surfaces, mesh, center)
+            self._sphere_mesh = self._mesh(mesh, center)
             self._sphere_key = key
         return self._sphere_mesh
+
+    def _mesh(self, mesh: dict, origin) -> _Mesh:
+        return _Mesh(self.ctx, self._surfaces, self._shadows.program, mesh, origin)
 
     # ---- lifetime ---------------------------------------------------------------------------
 

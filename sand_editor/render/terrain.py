@@ -84,6 +84,9 @@ class DuneTerrain:
             _Ridges(**{**f.__dict__, "amplitude": f.amplitude * scale}) for f in families
         )
         self.max_slope_bound = bound * scale  # |∇h| never exceeds this
+        # |h| never exceeds this
+        self.height_bound = sum(f.amplitude * sum(abs(a) for _, a in RIDGE_HARMONICS)
+                                for f in self._families)  # fmt: skip
 
     def height(self, x, z) -> np.ndarray:
         x, z = _as_float64(x, z)
@@ -155,6 +158,9 @@ class DuneTerrain:
         # The centre ring has radius 0: all its vertices coincide, a fan without a special case.
         mesh = self.surface(x, z, origin)
         mesh["index"] = _grid_index(len(radii), segments, wrap=True)
+        # Triangles come ring by ring: a band of rings is one run of the index buffer.
+        mesh["rings"] = radii
+        mesh["ring_center"] = np.asarray(center_xz, dtype=np.float64)
         return mesh
 
     def ray_hit(self, origin, direction, max_distance: float) -> np.ndarray | None:
@@ -215,9 +221,11 @@ def sphere_mesh(center, radius: float, segments: int = 32, origin=None) -> dict:
 
 
 def _grid_index(rows: int, columns: int, wrap: bool = False) -> np.ndarray:
-    """Two triangles per cell of a rows × columns vertex grid (row-major); with ``wrap`` the
-    last column joins the first."""
-    r, c = np.meshgrid(np.arange(rows - 1), np.arange(columns if wrap else columns - 1))
+    """Two triangles per cell of a rows × columns vertex grid (row-major), row after row; with
+    ``wrap`` the last column joins the first."""
+    r, c = np.meshgrid(
+        np.arange(rows - 1), np.arange(columns if wrap else columns - 1), indexing="ij"
+    )
     r, c = r.ravel(), c.ravel()
     a = r * columns + c
     b = r * columns + (c + 1) % columns
