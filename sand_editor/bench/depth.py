@@ -6,9 +6,10 @@ Each view (paper-default, 16:30, pitch 15°, the issue's 320×180) is rendered a
 of that size should show. FLIP (NVIDIA's perceptual metric, PyPI ``flip-evaluator``) compares
 the two over the ground (the frame's lower half, below any horizon). One fixed exposure, from
 the light, serves both, so the metering of frames of different sizes does not enter. The
-features: the grains' relief (``SandRenderer.relief``) and the ripples filtered along each
-pixel's footprint (``SandRenderer.sharp_ripples``); each row gives the frame with all of them,
-and without one.
+features: the grains' relief (``SandRenderer.relief``), the ripples filtered along each
+pixel's footprint (``SandRenderer.sharp_ripples``) and the shadows (``SandRenderer.shadows``);
+each row gives the frame with all of them, and without one. Every timed frame's clock moves on
+by a tenth of a second, so the shadow maps are drawn in each, as when the clock plays.
 Up close the sparkles are stochastic per pixel by design: their FLIP is reported, not a target.
 """
 
@@ -25,7 +26,10 @@ SIZE = (320, 180)
 SUPERSAMPLE = 8
 TIME = 16.5
 PITCH_DEG = 15.0
-FEATURES = ("relief", "sharp_ripples")
+FEATURES = ("relief", "sharp_ripples", "shadows")
+FEATURE_LABELS = {"relief": "no relief", "sharp_ripples": "isotropic ripples",
+                  "shadows": "no shadows"}  # fmt: skip
+CLOCK_STEP_H = 0.1 / 3600.0
 REPEATS = 3  # timed frames per setting, the median kept
 
 
@@ -68,8 +72,9 @@ class Views:
         self.material.update(Preset.load(bundled_preset("paper-default")))
         self.renderer = SandRenderer(self.ctx)
         self.renderer.set_material(self.material)
-        self.sky = sky_at(TIME)
-        self.exposure = light_exposure(self.sky)
+        self.sky_at = sky_at
+        self.frames = 0
+        self.exposure = light_exposure(sky_at(TIME))
 
     def frame(self, distance: float, size: tuple[int, int], **features) -> tuple[np.ndarray, float]:
         from sand_editor.render.camera import camera_at_distance
@@ -81,8 +86,10 @@ class Views:
         camera = camera_at_distance(
             distance, PITCH_DEG, width / height, lambda x, z: float(terrain.height(x, z))
         )
+        self.frames += 1
+        sky = self.sky_at(TIME + self.frames * CLOCK_STEP_H)
         start = time.perf_counter()
-        image = self.renderer.render_to_array(width, height, camera, self.sky, "full",
+        image = self.renderer.render_to_array(width, height, camera, sky, "full",
                                               exposure=self.exposure)  # fmt: skip
         return image, (time.perf_counter() - start) * 1e3
 
@@ -123,12 +130,15 @@ def format_table(results: dict) -> str:
         f"{results['size'][0]}×{results['size'][1]}, 16:30, pitch 15; "
         f"{results['machine']['gl_renderer']}, {results['machine']['cpu_count']} CPUs",
         "",
-        "| distance | FLIP | FLIP, no relief | FLIP, isotropic ripples | ms | ms, no relief "
-        "| ms, isotropic ripples |",
-        "| ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| distance | FLIP | "
+        + " | ".join(f"FLIP, {FEATURE_LABELS[f]}" for f in FEATURES)
+        + " | ms | "
+        + " | ".join(f"ms, {FEATURE_LABELS[f]}" for f in FEATURES)
+        + " |",
+        "|" + " ---: |" * (3 + 2 * len(FEATURES)),
     ]
     for row in results["rows"]:
-        cells = [row["all"], row["no_relief"], row["no_sharp_ripples"]]
+        cells = [row["all"], *(row[f"no_{f}"] for f in FEATURES)]
         flips = " | ".join(f"{c['flip']:.3f}" for c in cells)
         costs = " | ".join(f"{c['ms']:.0f}" for c in cells)
         lines.append(f"| {row['distance_m']:g} m | {flips} | {costs} |")

@@ -38,10 +38,12 @@ def test_depth_bench_writes_its_table_and_each_features_effect(tmp_path):
     json_path = tmp_path / "depth.json"
     result = run_bench("depth", "--json", str(json_path), timeout=900)
     assert "| 10 m |" in result.stdout
+    table = [line for line in result.stdout.splitlines() if line.startswith("|")]
+    assert len({line.count("|") for line in table}) == 1, "every row as wide as the header"
     rows = {row["distance_m"]: row for row in json.loads(json_path.read_text())["rows"]}
     assert set(rows) == {0.05, 10.0}
     for row in rows.values():
-        for setting in ("all", "no_relief", "no_sharp_ripples"):
+        for setting in ("all", "no_relief", "no_sharp_ripples", "no_shadows"):
             assert 0.0 <= row[setting]["flip"] <= 1.0 and row[setting]["ms"] > 0
     # The supersampled truth has the grains' relief: the flat frame is the farther from it ...
     assert rows[0.05]["no_relief"]["flip"] > 1.5 * rows[0.05]["all"]["flip"]
