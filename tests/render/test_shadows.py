@@ -254,3 +254,29 @@ def test_a_playing_clock_redraws_one_map_a_frame_and_a_jump_redraws_all(sand_ren
         assert len(set(jumped)) == 1 and jumped[0] != later[-1][0]
     finally:
         shadows.release()
+
+
+def test_a_map_draws_the_rings_that_can_cast_into_it_and_every_other_mesh_whole():
+    from types import SimpleNamespace
+
+    from sand_editor.render.shadows import caster_range
+
+    rings = np.concatenate([[0.0], 2.0 ** np.arange(12)])  # 0, 1, 2 … 2048 m
+    per_band = 6 * 8
+    terrain = SimpleNamespace(rings=rings, ring_center=np.zeros(2), indices=per_band * 12)
+    light = np.array([0.0, 1.0, 0.0])  # straight down: casters only above the sphere
+    camera = camera_at_distance(3.0, 30.0, 16 / 9)
+    cascade = fit_cascades(camera, light, 1.5, rise=0.0)[1]
+    distance = float(np.hypot(cascade.center[0], cascade.center[2]))
+    first, count = caster_range(terrain, cascade)
+    assert first % per_band == 0 and count % per_band == 0 and count > 0
+    inner, outer = rings[first // per_band], rings[(first + count) // per_band]
+    assert inner <= max(distance - cascade.radius, 0.0) and outer >= distance + cascade.radius
+    assert count < terrain.indices, "rings beyond the map are left out"
+    # A low sun reaches far: the rings out to where a caster can still shade the map are drawn.
+    low = fit_cascades(camera, np.array([0.99, 0.14, 0.0]), 1.5, rise=5.0)[1]
+    first, count = caster_range(terrain, low)
+    assert rings[(first + count) // per_band] >= 0.99 * low.reach + low.radius
+    assert count > caster_range(terrain, cascade)[1]
+    sphere = SimpleNamespace(indices=999)
+    assert caster_range(sphere, cascade) == (0, 999)
