@@ -28,26 +28,22 @@ uniform int u_shadow_size;       // texels per edge of one cascade's map
 
 in vec3 v_shadow[SHADOW_CASCADES];
 
-// The share of the light that reaches map point p of cascade `index`: the depth test over the
-// 3 × 3 texels around it, weighted as two bilinear taps half a texel either side on each axis
-// (a tent two texels wide), so shadow edges are smooth and do not step between texels.
+// The share of the light that reaches map point p of cascade `index`: the depth test at the
+// four texels around it, weighted bilinearly (percentage-closer filtering), so shadow edges are
+// a texel soft and do not step between texels.
 float cascade_light(vec3 p, int index) {
     ivec2 tile = ivec2(index % 2, index / 2) * u_shadow_size;
-    vec2 q = p.xy * float(u_shadow_size) - 1.0;
+    vec2 q = p.xy * float(u_shadow_size) - 0.5;
     vec2 corner = floor(q);
     vec2 f = q - corner;
-    vec3 wx = vec3(0.5 - 0.5 * f.x, 0.5, 0.5 * f.x);
-    vec3 wy = vec3(0.5 - 0.5 * f.y, 0.5, 0.5 * f.y);
     ivec2 base = ivec2(corner);
-    float lit = 0.0;
-    for (int j = 0; j < 3; ++j) {
-        for (int i = 0; i < 3; ++i) {
-            ivec2 t = clamp(base + ivec2(i, j), ivec2(0), ivec2(u_shadow_size - 1));
-            float depth = texelFetch(u_shadow_map, t + tile, 0).r;
-            lit += wx[i] * wy[j] * float(p.z <= depth);
-        }
-    }
-    return lit;
+    ivec2 last = ivec2(u_shadow_size - 1);
+    vec4 lit;
+    lit.x = float(p.z <= texelFetch(u_shadow_map, clamp(base, ivec2(0), last) + tile, 0).r);
+    lit.y = float(p.z <= texelFetch(u_shadow_map, clamp(base + ivec2(1, 0), ivec2(0), last) + tile, 0).r);
+    lit.z = float(p.z <= texelFetch(u_shadow_map, clamp(base + ivec2(0, 1), ivec2(0), last) + tile, 0).r);
+    lit.w = float(p.z <= texelFetch(u_shadow_map, clamp(base + ivec2(1, 1), ivec2(0), last) + tile, 0).r);
+    return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
 }
 
 // What of the casting light reaches a point `distance_m` from the eye: from the finest cascade

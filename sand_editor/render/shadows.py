@@ -26,7 +26,8 @@ import numpy as np
 from sand_editor.gl import GLObjects, drawing_into, program, render_state, set_matrix, set_uniform
 from sand_editor.render.camera import Camera
 
-CASCADES = 4
+CASCADES = 4  # at most; the atlas holds four
+MAX_SLICE_RATIO = 10.0  # a cascade's slice of the view reaches at most this ratio deep
 # Texels per edge of one cascade's map: the frame's larger side, rounded up to a power of two,
 # within these bounds (a cascade spans about the frame's width at its far end). Drawing a map
 # costs its texels on a CPU rasterizer, so a small frame gets small maps.
@@ -146,6 +147,9 @@ def fit_cascades(
     directions = np.array(corners) @ rotation.T
     axes = _light_axes(light)
     reach = min(MAX_REACH_M, max(float(rise), 0.0) / max(light[1], MIN_LIGHT_HEIGHT))
+    # No more cascades than slices MAX_SLICE_RATIO deep need: a high eye sees the ground from
+    # tens of metres to a few hundred, which two maps hold.
+    count = min(count, max(1, math.ceil(math.log(far / near) / math.log(MAX_SLICE_RATIO))))
     splits = cascade_splits(near, far, count)
     cascades = []
     for near_m, far_m in zip(splits[:-1], splits[1:], strict=True):
@@ -291,9 +295,13 @@ class SunShadows:
         """Each cascade's lookup matrix and normal offset for a mesh at ``origin``."""
         if frame is None:
             return
-        matrices = np.stack([cascade.lookup_matrix(origin) for cascade in frame.cascades])
+        # The arrays are CASCADES long; the cascades not in use read nothing (u_shadow_cascades).
+        matrices = np.zeros((CASCADES, 4, 4))
+        offsets = [0.0] * CASCADES
+        for index, cascade in enumerate(frame.cascades):
+            matrices[index] = cascade.lookup_matrix(origin)
+            offsets[index] = NORMAL_OFFSET_TEXELS * cascade.texel_m
         set_matrix(prog, "u_shadow_matrix", matrices)
-        offsets = [NORMAL_OFFSET_TEXELS * cascade.texel_m for cascade in frame.cascades]
         set_uniform(prog, "u_shadow_offset", offsets)
 
     def release(self) -> None:

@@ -13,6 +13,7 @@ from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.shadows import (
     CASCADE_SIZES,
     CASCADES,
+    MAX_SLICE_RATIO,
     cascade_size,
     cascade_splits,
     fit_cascades,
@@ -53,7 +54,11 @@ def test_cascades_cover_the_view_and_stay_finite(light, distance):
     camera = camera_at_distance(distance, 30.0, 16 / 9)
     clearance = float(camera.eye[1])
     cascades = fit_cascades(camera, light, clearance, rise=10.0)
-    assert len(cascades) == CASCADES
+    assert 1 <= len(cascades) <= CASCADES
+    assert (
+        all(c.far_m / c.near_m <= MAX_SLICE_RATIO * 1.0001 for c in cascades)
+        or len(cascades) == CASCADES
+    )
     for cascade in cascades:
         corners = _frustum_points(camera, cascade.near_m, cascade.far_m)
         assert np.linalg.norm(corners - cascade.center, axis=1).max() <= cascade.radius * 1.0001
@@ -175,7 +180,10 @@ def test_glints_vanish_in_the_shadow(sand_renderer, gl_clean):
     glints = _luminance(sand_renderer, camera, sky, False, mode="glints")[shadow]
     assert (glints > 0.0).sum() >= 3, "glints to vanish"
     shadowed = _luminance(sand_renderer, camera, sky, True, mode="glints")[shadow]
-    assert shadowed.sum() < 0.02 * glints.sum()
+    assert shadowed.sum() < 0.1 * glints.sum()
+    # Each pixel's glints dimmed at least as much as its light as a whole (which keeps the sky).
+    dimmed = (full[True] / np.maximum(full[False], 1e-9))[shadow]
+    assert np.all(shadowed <= glints * dimmed * 1.01 + 1e-6)
 
 
 @pytest.mark.gl
@@ -247,8 +255,11 @@ def test_a_playing_clock_redraws_one_map_a_frame_and_a_jump_redraws_all(sand_ren
         step = 0.2 * MAX_LIGHT_LAG_DEG / 15.0  # hours for a fifth of the lag: the sun's 15°/h
         second = lights(17.0 + step)
         assert sum(a != b for a, b in zip(first, second, strict=True)) == 1
-        later = [lights(17.0 + step) for _ in range(CASCADES - 1)]  # the clock stops
-        assert [sum(a != b for a, b in zip(f, later[-1], strict=True)) for f in later] == [2, 1, 0]
+        count = len(first)
+        assert count > 2
+        later = [lights(17.0 + step) for _ in range(count - 1)]  # the clock stops
+        behind = [sum(a != b for a, b in zip(f, later[-1], strict=True)) for f in later]
+        assert behind == list(range(count - 2, -1, -1))
         assert len(set(later[-1])) == 1, "every map caught up with the light"
         jumped = lights(17.5)
         assert len(set(jumped)) == 1 and jumped[0] != later[-1][0]
@@ -266,7 +277,7 @@ def test_a_map_draws_the_rings_that_can_cast_into_it_and_every_other_mesh_whole(
     terrain = SimpleNamespace(rings=rings, ring_center=np.zeros(2), indices=per_band * 12)
     light = np.array([0.0, 1.0, 0.0])  # straight down: casters only above the sphere
     camera = camera_at_distance(3.0, 30.0, 16 / 9)
-    cascade = fit_cascades(camera, light, 1.5, rise=0.0)[1]
+    cascade = fit_cascades(camera, light, 1.5, rise=0.0)[0]
     distance = float(np.hypot(cascade.center[0], cascade.center[2]))
     first, count = caster_range(terrain, cascade)
     assert first % per_band == 0 and count % per_band == 0 and count > 0
@@ -274,7 +285,7 @@ def test_a_map_draws_the_rings_that_can_cast_into_it_and_every_other_mesh_whole(
     assert inner <= max(distance - cascade.radius, 0.0) and outer >= distance + cascade.radius
     assert count < terrain.indices, "rings beyond the map are left out"
     # A low sun reaches far: the rings out to where a caster can still shade the map are drawn.
-    low = fit_cascades(camera, np.array([0.99, 0.14, 0.0]), 1.5, rise=5.0)[1]
+    low = fit_cascades(camera, np.array([0.99, 0.14, 0.0]), 1.5, rise=5.0)[0]
     first, count = caster_range(terrain, low)
     assert rings[(first + count) // per_band] >= 0.99 * low.reach + low.radius
     assert count > caster_range(terrain, cascade)[1]
