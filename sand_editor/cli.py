@@ -163,13 +163,17 @@ def _cmd_bench(args) -> int:
         from sand_editor.bench.render import main as bench_render
 
         return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
-    if args.what in ("appearance", "depth"):
+    if args.what in ("appearance", "depth", "relief"):
         if args.sizes:
             raise CommandError("--sizes applies to the generator benchmark only")
         if args.what == "depth":
             from sand_editor.bench.depth import main as bench_depth
 
             return bench_depth(quick=args.quick, json_path=args.json, plot_path=args.plot)
+        if args.what == "relief":
+            from sand_editor.bench.relief_reference import main as bench_relief
+
+            return bench_relief(quick=args.quick, json_path=args.json, plot_path=args.plot)
         from sand_editor.bench.sweep import main as bench_appearance
 
         return bench_appearance(quick=args.quick, json_path=args.json, plot_path=args.plot)
@@ -277,7 +281,16 @@ def _parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="measure speed against error")
     bench.add_argument(
         "what",
-        choices=["generator", "render", "appearance", "depth", "editor", "vr-link", "vr-runtime"],
+        choices=[
+            "generator",
+            "render",
+            "appearance",
+            "depth",
+            "relief",
+            "editor",
+            "vr-link",
+            "vr-runtime",
+        ],
         help="what to measure",
     )
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")

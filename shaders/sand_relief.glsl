@@ -17,8 +17,8 @@ uniform int u_relief;        // 1: grains with relief; 0: flat (the relief's cos
 const float RELIEF_DEPTH_CELLS = 0.5;
 const vec2 RELIEF_FADE_PX = vec2(2.0, 5.0);
 const int RELIEF_STEPS = 12;
-const int SHADOW_STEPS = 6;
-const float SHADOW_SOFTNESS = 6.0;  // per unit of depth: how quickly a shadow darkens
+const int SHADOW_STEPS = 12;
+const float SHADOW_SOFTNESS = 48.0;  // per unit of depth: how quickly a shadow darkens
 const float MIN_RELIEF_COSINE = 0.15;  // grazing rays are cut at this angle's reach
 
 struct Relief {
@@ -52,8 +52,9 @@ float relief_shadow(vec2 tc, float depth, vec3 l, float depth_tc, float lod) {
 }
 
 // The eye's ray through the grains (tangent-space `e` towards the eye, `l0`, `l1` towards the
-// lights), at weight w in (0, 1].
-Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, float w, float lod) {
+// lights, `lit` whether each shines here at all), at weight w in (0, 1]. A light that does not
+// shine (below the horizon, or in the scene's shadow) is not marched.
+Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float w, float lod) {
     float depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell * w;
     vec2 step_tc = -e.xy / max(e.z, MIN_RELIEF_COSINE) * depth_tc / float(RELIEF_STEPS);
     float step_depth = 1.0 / float(RELIEF_STEPS);
@@ -73,7 +74,7 @@ Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, float w, float lod) {
     float hit_depth = mix(previous_depth, depth, t);
     Relief r;
     r.tc = tc + step_tc * (hit_depth / step_depth);
-    r.sun = mix(1.0, relief_shadow(r.tc, hit_depth, l0, depth_tc, lod), w);
-    r.moon = mix(1.0, relief_shadow(r.tc, hit_depth, l1, depth_tc, lod), w);
+    r.sun = lit.x ? mix(1.0, relief_shadow(r.tc, hit_depth, l0, depth_tc, lod), w) : 1.0;
+    r.moon = lit.y ? mix(1.0, relief_shadow(r.tc, hit_depth, l1, depth_tc, lod), w) : 1.0;
     return r;
 }

@@ -215,7 +215,8 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     float relief = relief_weight(texels.x);
     if (relief > 0.0) {
         // The grains at their depth for this eye, and the light that reaches where it looks.
-        Relief r = relief_at(f.tc, normalize(f.to_eye), f.light0, f.light1, relief, c.lod);
+        Relief r = relief_at(f.tc, normalize(f.to_eye), f.light0, f.light1,
+                             bvec2(f.lit0, f.lit1), relief, c.lod);
         f.tc = r.tc;
         L.sun_radiance *= r.sun;
         L.moon_radiance *= r.moon;

@@ -76,6 +76,7 @@ class MaterialProbe:
         ctx = self.ctx = material.ctx
         self.width, self.height = width, height
         self.glint_filter = "ours"
+        self.relief = False  # the grains' relief up close (u_relief, sand_relief.glsl)
         self.ground_truth_samples = 16  # K: the ground truth's K×K albedo and slope samples
         # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz;
         # compiled with the benchmark's glint filters (SAND_PROBE), which production lacks.
@@ -134,7 +135,8 @@ class MaterialProbe:
             p["u_mode"].value = mode_index(mode)
             self.material.bind(p)
             own = {"u_glint_filter": GLINT_FILTERS[self.glint_filter],
-                   "u_ground_truth_samples": int(self.ground_truth_samples)}  # fmt: skip
+                   "u_ground_truth_samples": int(self.ground_truth_samples),
+                   "u_relief": int(self.relief)}  # fmt: skip
             for name, value in own.items():
                 set_uniform(p, name, value)  # the far-only variant has no glints
         with drawing_into(self.ctx, self._fbo):
