@@ -31,7 +31,7 @@ FEATURES = ("relief", "sharp_ripples", "shadows")
 FEATURE_LABELS = {"relief": "no relief", "sharp_ripples": "isotropic ripples",
                   "shadows": "no shadows"}  # fmt: skip
 CLOCK_STEP_H = 1.0 / 60.0
-REPEATS = 3  # timed frames per setting, the median kept
+REPEATS = 7  # timed frames per setting, the median kept
 
 
 def supersampled(image: np.ndarray, factor: int) -> np.ndarray:
