@@ -17,6 +17,7 @@ uniform int u_relief;        // 1: grains with relief; 0: flat (the relief's cos
 const float RELIEF_DEPTH_CELLS = 0.5;
 const vec2 RELIEF_FADE_PX = vec2(2.0, 5.0);
 const int RELIEF_STEPS = 12;
+const float RELIEF_SHARPEN_LOD = 1.0;  // heights read this many mip levels finer than the footprint
 const int SHADOW_STEPS = 12;
 const float SHADOW_SOFTNESS = 48.0;  // per unit of depth: how quickly a shadow darkens
 const float MIN_RELIEF_COSINE = 0.15;  // grazing rays are cut at this angle's reach
@@ -28,7 +29,7 @@ struct Relief {
 };
 
 float relief_height(vec2 tc, float lod) {
-    return textureLod(u_albedo, tc, lod).a;
+    return textureLod(u_albedo, tc, max(lod - RELIEF_SHARPEN_LOD, 0.0)).a;
 }
 
 // The weight of the relief for a footprint whose texel footprint is `texels` wide.

@@ -43,7 +43,7 @@ LIGHT_DECIMALS = 4  # the maps' light direction is rounded to this many decimals
 # A map drawn for a light at most this far from the present one, whose sphere still holds its
 # slice of the view, is kept a while: of such maps, one is drawn again per frame, the one drawn
 # longest ago. Any other change (a new size, another light, new meshes) draws the map at once.
-MAX_LIGHT_LAG_DEG = 0.5
+MAX_LIGHT_LAG_DEG = 1.0
 REFRESHED_PER_FRAME = 1
 _LIGHTS = {"sun": 0, "moon": 1}
 
