@@ -269,10 +269,10 @@ class SandRenderer:
         self._shadow_scene = (scene, sky)
         head = scene.head or camera
         meshes = (scene.terrain, *scene.objects)
-        ground = float(self.terrain.height(head.eye[0], head.eye[2]))
         # Anything in the scene stands at most this far above the lowest ground in view.
         rise = max(mesh.top for mesh in meshes) + self.terrain.height_bound
-        return self._shadows.update(meshes, head, sky, head.eye[1] - ground, rise, size)
+        clearance = self.terrain.clearance(head.eye)
+        return self._shadows.update(meshes, head, sky, clearance, rise, size)
 
     @property
     def shadow_maps_drawn(self) -> int:
@@ -307,10 +307,10 @@ class SandRenderer:
         view_projection = camera.projection.astype(np.float64) @ camera.view_relative_to(
             mesh.origin
         )
+        self._shadows.bind_mesh(self._surfaces, self._shadow_frame, mesh.origin)
         for prog, vao in zip(self._surfaces, mesh.vaos, strict=True):
             set_matrix(prog, "u_view_projection", view_projection)
             set_uniform(prog, "u_origin", _vec(mesh.origin))
-            self._shadows.bind_mesh(prog, self._shadow_frame, mesh.origin)
             vao.render(moderngl.TRIANGLES)
 
     # ---- meshes -----------------------------------------------------------------------------
@@ -319,8 +319,7 @@ class SandRenderer:
         """(finest ring spacing, centre, outer radius) of the terrain mesh for an eye: the mesh
         is rebuilt only when this changes, i.e. when the eye has moved by a fraction of the
         finest ring spacing, or its height above the ground changed by a factor of two."""
-        ground = float(self.terrain.height(eye[0], eye[2]))
-        clearance = max(float(eye[1]) - ground, 1e-6)
+        clearance = max(self.terrain.clearance(eye), 1e-6)
         inner = 2.0 ** math.floor(math.log2(min(max(0.1 * clearance, 1e-6), 0.5)))
         snap = 2.0 * inner
         center = (round(eye[0] / snap) * snap, round(eye[2] / snap) * snap)

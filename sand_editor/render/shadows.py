@@ -1,18 +1,19 @@
 """Shadows of the sun, or at night of the moon: cascaded shadow maps fitted to the view.
 
 The view's frustum, from where the nearest ground can be to ``SHADOW_DISTANCE_M`` (further
-when the eye is high), is cut into ``CASCADES`` slices whose depths grow geometrically, and each
-slice is covered by one orthographic map seen from the light: a sphere around the slice, so its
-size does not change as the head turns, with its centre snapped to the map's texels, so edges
-do not crawl while the head moves. The four maps share one depth texture (a 2 × 2 atlas).
+when the eye is high), is cut into one to ``CASCADES`` slices whose depths grow geometrically
+(each at most ``MAX_SLICE_RATIO`` deep), and each slice is covered by one orthographic map seen
+from the light: a sphere around the slice, so its size does not change as the head turns, with
+its centre snapped to the map's texels, so edges do not crawl while the head moves. The maps
+share one depth texture (a 2 × 2 atlas).
 Casters are taken from as far towards the light as anything in the scene can rise above the
 lowest ground, so a dune a kilometre away still shades the sand at the viewer's feet at sunset.
 
 A frame's maps are drawn once, for the head (``prepare_frame``'s camera), and both eyes read the
 same maps; they are not drawn again while the light, the fit and the meshes stay the same (an
 editor's still view, a paused clock). Surfaces read them in shaders/shadows.glsl: the light's
-radiance, diffuse and glints alike, is scaled by what of it reaches the point, filtered over
-3 × 3 texels.
+radiance, diffuse and glints alike, is scaled by what of it reaches the point, the depth tests
+of the 2 × 2 texels around it weighted bilinearly.
 """
 
 from __future__ import annotations
@@ -61,6 +62,12 @@ class Cascade:
     near_m: float  # the slice of the view it covers (distances from the eye)
     far_m: float
     corners: np.ndarray  # the slice's eight corners, world, float64
+
+    def shows_the_same(self, other: Cascade) -> bool:
+        """Whether ``other``'s map would hold the same depths as this one's."""
+        same_box = (self.radius, self.reach, self.size) == (other.radius, other.reach, other.size)
+        return (same_box and np.array_equal(self.center, other.center)
+                and np.array_equal(self.axes, other.axes))  # fmt: skip
 
     def covers(self, points: np.ndarray) -> bool:
         """Whether every point lies inside the sphere (two texels in from its edge)."""
@@ -132,7 +139,7 @@ def fit_cascades(
     light in unit direction ``light``; ``rise`` is how far anything in the scene stands above
     the lowest ground the view can see (it sets how far towards the light casters are taken)."""
     light = np.asarray(light, dtype=np.float64)
-    near_plane, far_plane = _depth_range(head.projection.astype(np.float64))
+    near_plane, far_plane = _depth_range(head.projection)
     clearance = max(float(clearance), 0.0)
     near = max(near_plane, 0.5 * clearance, 1e-4)
     far = min(far_plane, max(SHADOW_DISTANCE_M, 20.0 * clearance))
@@ -234,11 +241,7 @@ class SunShadows:
                 urgent.append(index)
                 continue
             old = drawn[0]
-            same_fit = (old.radius, old.reach) == (
-                cascade.radius,
-                cascade.reach,
-            ) and np.array_equal(old.center, cascade.center)
-            if same_fit and np.array_equal(old.axes, cascade.axes):
+            if old.shows_the_same(cascade):
                 continue
             kept = old.radius == cascade.radius and old.covers(cascade.corners)
             if kept and old.light_angle_to(direction) <= MAX_LIGHT_LAG_DEG:
@@ -291,8 +294,9 @@ class SunShadows:
         fade = frame.cascades[-1]
         set_uniform(prog, "u_shadow_fade", (0.8 * fade.far_m, fade.far_m))
 
-    def bind_mesh(self, prog, frame: ShadowFrame | None, origin) -> None:
-        """Each cascade's lookup matrix and normal offset for a mesh at ``origin``."""
+    def bind_mesh(self, programs, frame: ShadowFrame | None, origin) -> None:
+        """Each cascade's lookup matrix and normal offset for a mesh at ``origin``, in every
+        program that draws it."""
         if frame is None:
             return
         # The arrays are CASCADES long; the cascades not in use read nothing (u_shadow_cascades).
@@ -301,8 +305,9 @@ class SunShadows:
         for index, cascade in enumerate(frame.cascades):
             matrices[index] = cascade.lookup_matrix(origin)
             offsets[index] = NORMAL_OFFSET_TEXELS * cascade.texel_m
-        set_matrix(prog, "u_shadow_matrix", matrices)
-        set_uniform(prog, "u_shadow_offset", offsets)
+        for prog in programs:
+            set_matrix(prog, "u_shadow_matrix", matrices)
+            set_uniform(prog, "u_shadow_offset", offsets)
 
     def release(self) -> None:
         self._release_maps()

@@ -97,6 +97,10 @@ class DuneTerrain:
                 h = h + family.amplitude * a * np.sin(n * phi)
         return h
 
+    def clearance(self, eye) -> float:
+        """How far a point (world x, y, z) is above the ground below it, in metres."""
+        return float(eye[1]) - float(self.height(eye[0], eye[2]))
+
     def gradient(self, x, z) -> tuple[np.ndarray, np.ndarray]:
         """(∂h/∂x, ∂h/∂z), exact."""
         x, z = _as_float64(x, z)
