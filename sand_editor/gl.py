@@ -108,6 +108,25 @@ def _gl_function(name: str, *argtypes):
     return function
 
 
+_GL_FRAMEBUFFER = 0x8D40
+_GL_DEPTH_ATTACHMENT = 0x8D00
+_GL_DEPTH_STENCIL_ATTACHMENT = 0x821A
+
+
+def attach_depth_texture(framebuffer: moderngl.Framebuffer, texture: int, stencil: bool) -> None:
+    """Attach GL texture ``texture`` (a depth format made elsewhere, e.g. a compositor's
+    swapchain image, which moderngl cannot wrap as a depth texture) as ``framebuffer``'s depth
+    (and stencil) buffer, and let the framebuffer write depth."""
+    attachment = _GL_DEPTH_STENCIL_ATTACHMENT if stencil else _GL_DEPTH_ATTACHMENT
+    framebuffer.use()
+    attach = _gl_function(
+        "glFramebufferTexture2D",
+        ctypes.c_uint, ctypes.c_uint, ctypes.c_uint, ctypes.c_uint, ctypes.c_int,
+    )  # fmt: skip
+    attach(_GL_FRAMEBUFFER, attachment, _GL_TEXTURE_2D, int(texture), 0)
+    framebuffer.depth_mask = True
+
+
 def finish_without_gil() -> None:
     """``glFinish`` on this thread's current context, letting other Python threads run while
     it waits.

@@ -3,7 +3,8 @@
 // Post-processing of the HDR scene, one program per define: BLOOM_DOWNSAMPLE (13 taps),
 // BLOOM_UPSAMPLE (3×3 tent, added onto the next larger level), and RESOLVE (bloom mix, exposure,
 // ACES tone mapping and sRGB encoding into the caller's framebuffer, or raw values for debug
-// views), and METER (the log of the scene's luminance, for the exposure's log-average). Drawn
+// views), METER (the log of the scene's luminance, for the exposure's log-average) and
+// DEPTH_COPY (the scene's depth into the caller's framebuffer). Drawn
 // with the fullscreen triangle of fullscreen.vert.
 
 uniform sampler2D u_source;
@@ -63,6 +64,16 @@ void main() {
 void main() {
     float luminance = dot(texture(u_source, output_uv()).rgb, vec3(0.2126, 0.7152, 0.0722));
     out_colour = vec4(log(max(luminance, 1e-8)), 0.0, 0.0, 1.0);
+}
+
+#elif defined DEPTH_COPY
+
+// The scene's depth into the caller's framebuffer (its depth buffer, for what is drawn over the
+// finished image and for a compositor that reprojects); the colour is left as it is (blended
+// with ZERO, ONE).
+void main() {
+    gl_FragDepth = texelFetch(u_source, ivec2(gl_FragCoord.xy - u_viewport.xy), 0).r;
+    out_colour = vec4(0.0);
 }
 
 #elif defined RESOLVE

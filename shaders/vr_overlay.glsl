@@ -1,6 +1,7 @@
 #version 330 core
-// The viewer's overlays, drawn over a finished eye image: the workbench panel (a texture of
-// sRGB-encoded bytes, written as they are, like the tone-mapped scene) and controller rays.
+// The viewer's overlays, drawn over a finished eye image and depth-tested against the scene:
+// the workbench panel (a texture of sRGB-encoded bytes, written as they are, like the
+// tone-mapped scene), controller rays and the teleport arc (flat colours, u_textured false).
 
 uniform mat4 u_view_projection;
 uniform sampler2D u_panel;

@@ -44,6 +44,7 @@ class PostChain:
         self._upsample = keep(fullscreen_program(ctx, "post.glsl", {"BLOOM_UPSAMPLE": 1}))
         self._resolve = keep(fullscreen_program(ctx, "post.glsl", {"RESOLVE": 1}))
         self._meter = keep(fullscreen_program(ctx, "post.glsl", {"METER": 1}))
+        self._depth_copy = keep(fullscreen_program(ctx, "post.glsl", {"DEPTH_COPY": 1}))
         self._meter_texture = keep(ctx.texture((METER_SIZE, METER_SIZE), 1, dtype="f4"))
         self._meter_texture.build_mipmaps()
         self._meter_fbo = keep(ctx.framebuffer([self._meter_texture]))
@@ -59,6 +60,7 @@ class PostChain:
         ctx = self.ctx
         self.scene_texture = self._hdr_texture((width, height))
         self.depth_texture = ctx.depth_texture((width, height))
+        self.depth_texture.compare_func = ""  # read as depths (copy_depth), not compared
         self.scene_framebuffer = ctx.framebuffer([self.scene_texture], self.depth_texture)
         for level in range(BLOOM_LEVELS):
             size = (max(1, width >> (level + 1)), max(1, height >> (level + 1)))
@@ -123,6 +125,21 @@ class PostChain:
         finally:
             target_fbo.viewport = saved_viewport
         return float(exposure)
+
+    def copy_depth(self, target_fbo: moderngl.Framebuffer, viewport) -> None:
+        """The scene's depth into ``viewport`` of ``target_fbo``'s depth buffer (which must be
+        the scene's size there), its colour untouched."""
+        ctx = self.ctx
+        saved_viewport = target_fbo.viewport
+        flags = moderngl.DEPTH_TEST | moderngl.BLEND
+        try:
+            with render_state(ctx, flags, blend_func=(moderngl.ZERO, moderngl.ONE)):
+                ctx.depth_func = "1"  # always: the depth is written, not tested
+                self._pass(self._depth_copy, self.depth_texture, target_fbo, viewport[2:],
+                           viewport[:2], blend=True)  # fmt: skip
+        finally:
+            ctx.depth_func = "<"
+            target_fbo.viewport = saved_viewport
 
     def scene_luminance(self) -> float:
         """Log-average luminance of the scene (after ``bloom``, whose smallest level it reads)."""

@@ -54,6 +54,7 @@ class _Mesh:
         # A mesh of rings (the terrain's): their radii about ring_center, so that a shadow map
         # draws only the rings that can cast into it.
         self.rings = mesh.get("rings")
+        self.ripples = float(bool(mesh.get("ripples", False)))  # wind ripples: the dunes only
         self.ring_center = mesh.get("ring_center")
         self.buffer = ctx.buffer(vertices.astype(np.float32).tobytes())
         self.index = ctx.buffer(mesh["index"].astype(np.uint32).tobytes())
@@ -136,6 +137,11 @@ class SandRenderer:
         origin = np.asarray(origin, dtype=np.float64)
         self._fixed_objects.append(self._mesh(mesh, origin))
 
+    def clear_objects(self) -> None:
+        """Remove (and release) every fixed object."""
+        while self._fixed_objects:
+            self._fixed_objects.pop().release()
+
     # ---- frame ------------------------------------------------------------------------------
 
     def prepare_frame(self, head: Camera, show_sphere: bool | None = None) -> FrameScene:
@@ -159,6 +165,8 @@ class SandRenderer:
         exposure: float | None = None,
         show_sphere: bool | None = None,
         scene: FrameScene | None = None,
+        extra=None,
+        depth_out: bool = False,
     ) -> dict:
         """Draw one frame into ``viewport`` of ``target`` (its whole area by default).
 
@@ -166,7 +174,9 @@ class SandRenderer:
         from ``camera`` (one view, as in the editor). Debug modes (``blend``, ``normals``,
         ``mip``) write the material's values unexposed and unblended, over black. Without
         ``exposure`` the frame is metered (and with ``adapt_over_time`` the eye's adaptation
-        follows it, the first frame jumping to it); a number fixes it. Returns CPU
+        follows it, the first frame jumping to it); a number fixes it. ``extra(camera, sky)``
+        draws more (not sand) into the scene, depth-tested, before it is exposed; with
+        ``depth_out`` the scene's depth goes into the target's depth buffer too. Returns CPU
         milliseconds per stage and the exposure used.
         """
         check_mode(mode)
@@ -192,6 +202,8 @@ class SandRenderer:
                 self._prepare_surface(camera, sky, mode)
                 for mesh in (scene.terrain, *scene.objects):
                     self._draw(mesh, camera)
+                if extra is not None:
+                    extra(camera, sky)
             times["surface_ms"] = _lap(start) - times["shadows_ms"] - times["sky_ms"]
         if exposure is None:
             # Metered from this frame's scene and adapted over time, as an eye does.
@@ -211,6 +223,8 @@ class SandRenderer:
             bloom_strength=0.0 if debug else self.bloom_strength,
             tone_map=not debug,
         )
+        if depth_out:
+            self.post.copy_depth(target, viewport)
         drawn = ("shadows_ms", "sky_ms", "surface_ms")
         times["post_ms"] = _lap(start) - sum(times[k] for k in drawn)
         times["exposure"] = exposure
@@ -311,6 +325,7 @@ class SandRenderer:
         for prog, vao in zip(self._surfaces, mesh.vaos, strict=True):
             set_matrix(prog, "u_view_projection", view_projection)
             set_uniform(prog, "u_origin", _vec(mesh.origin))
+            set_uniform(prog, "u_ripple_share", mesh.ripples)
             vao.render(moderngl.TRIANGLES)
 
     # ---- meshes -----------------------------------------------------------------------------
@@ -342,18 +357,11 @@ class SandRenderer:
         return self._terrain_mesh
 
     def _sphere(self, camera: Camera) -> _Mesh | None:
-        """A sphere resting on the ground beside the point at the centre of the view, sized to
-        the distance to it so it reads from a millimetre to a kilometre."""
-        eye = camera.eye
-        hit = self.terrain.ray_hit(eye, camera.forward, 10.0 * self.terrain.extent_m)
-        if hit is None:
+        """The sphere of ``DuneTerrain.sphere_beside_view``, rebuilt only when it moves."""
+        placed = self.terrain.sphere_beside_view(camera.eye, camera.forward)
+        if placed is None:
             return None
-        distance = float(np.linalg.norm(hit - eye))
-        radius = 0.15 * distance
-        side = np.cross(camera.forward.astype(np.float64), (0.0, 1.0, 0.0))
-        side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([1, 0, 0])
-        x, z = hit[0] + 0.35 * distance * side[0], hit[2] + 0.35 * distance * side[2]
-        center = np.array([x, float(self.terrain.height(x, z)) + radius, z])
+        center, radius = placed
         key = tuple(np.round(center / max(radius * 1e-3, 1e-9)).astype(np.int64)) + (radius,)
         if key != self._sphere_key:
             mesh = sphere_mesh(center, radius, 32, origin=center)

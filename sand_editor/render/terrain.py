@@ -144,6 +144,7 @@ class DuneTerrain:
         z, x = np.meshgrid(center_xz[1] + offsets, center_xz[0] + offsets, indexing="ij")
         mesh = self.surface(x, z, origin)
         mesh["index"] = _grid_index(resolution, resolution)
+        mesh["ripples"] = True
         return mesh
 
     def radial_mesh(
@@ -165,7 +166,24 @@ class DuneTerrain:
         # Triangles come ring by ring: a band of rings is one run of the index buffer.
         mesh["rings"] = radii
         mesh["ring_center"] = np.asarray(center_xz, dtype=np.float64)
+        mesh["ripples"] = True  # the wind's ripples lie on the dunes, not on other objects
         return mesh
+
+    def sphere_beside_view(self, eye, forward) -> tuple[np.ndarray, float] | None:
+        """(centre, radius) of a sphere resting on the ground beside the point a view from
+        ``eye`` along ``forward`` looks at, sized to the distance to it so it reads from a
+        millimetre to a kilometre; None when the view misses the ground."""
+        eye = np.asarray(eye, dtype=np.float64)
+        forward = np.asarray(forward, dtype=np.float64)
+        hit = self.ray_hit(eye, forward, 10.0 * self.extent_m)
+        if hit is None:
+            return None
+        distance = float(np.linalg.norm(hit - eye))
+        radius = 0.15 * distance
+        side = np.cross(forward, (0.0, 1.0, 0.0))
+        side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([1, 0, 0])
+        x, z = hit[0] + 0.35 * distance * side[0], hit[2] + 0.35 * distance * side[2]
+        return np.array([x, float(self.height(x, z)) + radius, z]), radius
 
     def ray_hit(self, origin, direction, max_distance: float) -> np.ndarray | None:
         """First point where the ray meets the ground within ``max_distance``, or ``None``."""

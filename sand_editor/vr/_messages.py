@@ -15,10 +15,12 @@ from sand_editor.vr.link import (
     EDITOR_MESSAGES,
     LinkError,
     check_grains,
+    check_move,
     check_seq,
     check_time_fields,
     error_text,
 )
+from sand_editor.vr.workbench import BUTTONS
 
 MAX_REPORTED_ERRORS = 200  # the report keeps the first errors; each is still answered
 LINK = "link"  # the source of view changes the editor made: not sent back to it
@@ -65,6 +67,15 @@ def handle_message(loop, message: dict) -> None:
             shown = repr(mode) if isinstance(mode, str) else type(mode).__name__
             raise LinkError(f"unknown mode {shown}; allowed: {', '.join(MODES)}")
         loop.view.update(LINK, mode=mode)
+    elif kind == "move":
+        loop.move(**check_move(message))
+    elif kind == "press":
+        # A panel button pressed from afar, as a controller's trigger on it presses it.
+        button = message.get("button")
+        if not isinstance(button, str) or button not in BUTTONS:
+            shown = repr(button) if isinstance(button, str) else type(button).__name__
+            raise LinkError(f"unknown button {shown}; allowed: {', '.join(BUTTONS)}")
+        loop.run_command(BUTTONS[button][5])
     elif kind == "quit":
         loop.backend.request_exit()
     else:

@@ -25,10 +25,12 @@ HANDS = ("left", "right")
 # OpenXR actions: name → (type, localized name). Types: "boolean", "float", "vector2f", "pose".
 ACTIONS = {
     "scrub": ("vector2f", "Scrub time and day speed"),
+    "locomote": ("vector2f", "Teleport and turn"),
     "select": ("float", "Press a panel button"),
     "play_pause": ("boolean", "Play or pause the day"),
     "next_preset": ("boolean", "Next sand"),
     "toggle_lambert": ("boolean", "Compare with Lambert"),
+    "bring_bench": ("boolean", "Bring the workbench"),
     "aim": ("pose", "Aim"),
 }
 
@@ -38,33 +40,40 @@ _BOTH = HANDS
 BINDINGS: dict[str, list[tuple[str, tuple[str, ...], str]]] = {
     "/interaction_profiles/khr/simple_controller": [
         ("select", _BOTH, "input/select/click"),
-        ("play_pause", _BOTH, "input/menu/click"),
+        ("play_pause", ("right",), "input/menu/click"),
+        ("bring_bench", ("left",), "input/menu/click"),
         ("aim", _BOTH, "input/aim/pose"),
     ],
     "/interaction_profiles/oculus/touch_controller": [
-        ("scrub", _BOTH, "input/thumbstick"),
+        ("scrub", ("left",), "input/thumbstick"),
+        ("locomote", ("right",), "input/thumbstick"),
         ("select", _BOTH, "input/trigger/value"),
         ("play_pause", ("left",), "input/x/click"),
         ("play_pause", ("right",), "input/a/click"),
         ("next_preset", ("left",), "input/y/click"),
         ("next_preset", ("right",), "input/b/click"),
-        ("toggle_lambert", _BOTH, "input/thumbstick/click"),
+        ("bring_bench", ("left",), "input/thumbstick/click"),
+        ("toggle_lambert", ("right",), "input/thumbstick/click"),
         ("aim", _BOTH, "input/aim/pose"),
     ],
     "/interaction_profiles/valve/index_controller": [
-        ("scrub", _BOTH, "input/thumbstick"),
+        ("scrub", ("left",), "input/thumbstick"),
+        ("locomote", ("right",), "input/thumbstick"),
         ("select", _BOTH, "input/trigger/value"),
         ("play_pause", _BOTH, "input/a/click"),
         ("next_preset", _BOTH, "input/b/click"),
-        ("toggle_lambert", _BOTH, "input/thumbstick/click"),
+        ("bring_bench", ("left",), "input/thumbstick/click"),
+        ("toggle_lambert", ("right",), "input/thumbstick/click"),
         ("aim", _BOTH, "input/aim/pose"),
     ],
     "/interaction_profiles/microsoft/motion_controller": [
-        ("scrub", _BOTH, "input/thumbstick"),
+        ("scrub", ("left",), "input/thumbstick"),
+        ("locomote", ("right",), "input/thumbstick"),
         ("select", _BOTH, "input/trigger/value"),
         ("play_pause", _BOTH, "input/menu/click"),
         ("next_preset", _BOTH, "input/squeeze/click"),
-        ("toggle_lambert", _BOTH, "input/trackpad/click"),
+        ("bring_bench", ("left",), "input/trackpad/click"),
+        ("toggle_lambert", ("right",), "input/trackpad/click"),
         ("aim", _BOTH, "input/aim/pose"),
     ],
 }
@@ -83,11 +92,12 @@ def binding_paths(profile: str) -> list[tuple[str, str]]:
 class HandInput:
     """One hand's controls at one moment; ``aim`` is None while not tracked."""
 
-    stick: tuple[float, float] = (0.0, 0.0)
+    stick: tuple[float, float] = (0.0, 0.0)  # the left's scrubs the time, the right's locomotes
     select: float = 0.0
     play_pause: bool = False
     next_preset: bool = False
     toggle_lambert: bool = False
+    bring_bench: bool = False
     aim: Pose | None = None
 
 
@@ -104,7 +114,8 @@ class InputState:
 class Command:
     """``kind``: ``scrub`` (``value`` hours), ``speed`` (``value`` hours/s added),
     ``speed_step`` (±1 along SPEED_STEPS), ``play_pause``, ``next_preset``, ``toggle_lambert``,
-    ``press`` (trigger pulled; ``hand`` aims at something)."""
+    ``toggle_comfort``, ``bring_bench``, ``press`` (trigger pulled; ``hand`` aims at
+    something)."""
 
     kind: str
     value: float = 0.0
@@ -120,16 +131,15 @@ def _dead_zone(value: float) -> float:
 
 
 def commands_from_input(previous: InputState, current: InputState, dt_s: float) -> list[Command]:
-    """Commands for the change from ``previous`` to ``current`` over ``dt_s`` seconds: sticks
-    act continuously (x scrubs the time, y changes the day speed), buttons and the trigger on
-    their press only."""
+    """Commands for the change from ``previous`` to ``current`` over ``dt_s`` seconds: the left
+    stick acts continuously (x scrubs the time, y changes the day speed; the right stick is
+    ``locomotion``'s), buttons and the trigger on their press only."""
     dt_s = dt_s if math.isfinite(dt_s) and dt_s > 0 else 0.0
     commands = []
-    scrub = speed = 0.0
+    scrub = _dead_zone(current.left.stick[0]) * SCRUB_HOURS_PER_S * dt_s
+    speed = _dead_zone(current.left.stick[1]) * SPEED_CHANGE_PER_S * dt_s
     for (hand, now), (_, before) in zip(current.hands(), previous.hands(), strict=True):
-        scrub += _dead_zone(now.stick[0]) * SCRUB_HOURS_PER_S * dt_s
-        speed += _dead_zone(now.stick[1]) * SPEED_CHANGE_PER_S * dt_s
-        for kind in ("play_pause", "next_preset", "toggle_lambert"):
+        for kind in ("play_pause", "next_preset", "toggle_lambert", "bring_bench"):
             if getattr(now, kind) and not getattr(before, kind):
                 commands.append(Command(kind, hand=hand))
         if now.select >= TRIGGER_PRESS and before.select < TRIGGER_PRESS:
@@ -152,6 +162,7 @@ class ViewerControls:
     preset_index: int = 0
     preset_count: int = 1
     previous_mode: str = "full"
+    comfort: bool = True  # the vignette over teleports and turns
 
 
 def apply_command(
@@ -180,6 +191,8 @@ def apply_command(
             back = controls.previous_mode if controls.previous_mode != COMPARISON_MODE else "full"
             return controls, {"mode": back}
         return replace(controls, previous_mode=view.mode), {"mode": COMPARISON_MODE}
+    if kind == "toggle_comfort":
+        return replace(controls, comfort=not controls.comfort), {}
     return controls, {}
 
 

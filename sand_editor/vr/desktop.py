@@ -1,9 +1,11 @@
 """The desktop stereo preview: both eyes side by side in a window, the head moved with the
 mouse and keyboard, driving the same frame loop as a headset.
 
-Keys: arrows ←/→ scrub the time, ↑/↓ change the day speed, Space play/pause, N next sand,
-L Lambert comparison, W/A/S/D walk, Q/E crouch and rise, Esc quit. Drag with the right mouse
-button to look around; the left button is the trigger of a ray from just below the eyes.
+Keys: arrows ←/→ scrub the time, ↑/↓ change the day speed (the left stick), Space play/pause,
+N next sand, L Lambert comparison, W/A/S/D walk, Q/E crouch and rise, Z/C snap turn left and
+right and T (held) aims a teleport (the right stick), B brings the workbench, Esc quit. Drag
+with the right mouse button to look around; the left button is the trigger of a ray from just
+below the eyes: on the panel it presses, elsewhere it aims a teleport while held.
 """
 
 from __future__ import annotations
@@ -33,7 +35,31 @@ def eye_size(render_scale: float) -> tuple[int, int]:
     return (max(16, round(EYE_SIZE[0] * render_scale)), max(16, round(EYE_SIZE[1] * render_scale)))
 
 
-class DesktopBackend:
+class SimulatedSession:
+    """A session that opens and closes through OpenXR's states with no runtime: the desktop
+    preview's and the headless backend's."""
+
+    def __init__(self) -> None:
+        self.exiting = False
+        self._states = list(_OPENING)
+        self._state = None
+
+    def poll_events(self) -> list[str]:
+        entered, self._states = self._states, []
+        if entered:
+            self._state = entered[-1]
+        if self._state == "EXITING":
+            self.exiting = True
+        return entered
+
+    def request_exit(self) -> None:
+        if self._state == "FOCUSED" and not self._states:
+            self._states = list(_CLOSING)
+        elif self._state is None:  # asked before the session began: nothing to stop
+            self._states = ["EXITING"]
+
+
+class DesktopBackend(SimulatedSession):
     """``windows`` is a visible ``GLWindows`` two eyes wide."""
 
     name = "desktop"
@@ -51,9 +77,7 @@ class DesktopBackend:
         self.runtime = "desktop preview"
         self.system = f"window on {self.ctx.info.get('GL_RENDERER', 'OpenGL')}"
         self.views = [{"width": size[0], "height": size[1], "fov": fov.as_dict()} for _ in range(2)]
-        self.exiting = False
-        self._states = list(_OPENING)
-        self._state = None
+        super().__init__()
         self._position = list(START_POSITION)
         self._yaw = 0.0
         self._pitch = START_PITCH_RAD
@@ -67,18 +91,7 @@ class DesktopBackend:
         self.glfw.poll_events()
         if self.glfw.window_should_close(self.windows.window) or self._pressed("ESCAPE"):
             self.request_exit()
-        entered, self._states = self._states, []
-        if entered:
-            self._state = entered[-1]
-        if self._state == "EXITING":
-            self.exiting = True
-        return entered
-
-    def request_exit(self) -> None:
-        if self._state == "FOCUSED" and not self._states:
-            self._states = list(_CLOSING)
-        elif self._state is None:  # asked before the session began: nothing to stop
-            self._states = ["EXITING"]
+        return super().poll_events()
 
     def interaction_profiles(self) -> dict[str, str | None]:
         return {"left": None, "right": "keyboard and mouse"}
@@ -150,15 +163,19 @@ class DesktopBackend:
         hand = head.translated(rotation @ (0.12, -0.2, 0.0))
         target = head.position + head.forward * 1.0
         aim = _looking_from(hand.position, target)
-        right = HandInput(
+        left = HandInput(
             stick=(self._axis("LEFT", "RIGHT"), self._axis("DOWN", "UP")),
+            bring_bench=self._pressed("B"),
+        )
+        right = HandInput(
+            stick=(self._axis("Z", "C"), float(self._pressed("T"))),
             select=float(glfw.get_mouse_button(window, glfw.MOUSE_BUTTON_LEFT) == glfw.PRESS),
             play_pause=self._pressed("SPACE"),
             next_preset=self._pressed("N"),
             toggle_lambert=self._pressed("L"),
             aim=aim,
         )
-        return InputState(right=right)
+        return InputState(left=left, right=right)
 
 
 def _looking_from(position, target) -> Pose:

@@ -42,7 +42,7 @@ MAX_NUMBER_CHARS = 100  # Python refuses integers of over 4300 digits; refuse fa
 MAX_ERROR_CHARS = 300  # an error message sent back, whatever the line held
 MAX_SEQ = 2**53  # sequence numbers are integers a JSON reader in any language keeps exactly
 
-EDITOR_MESSAGES = frozenset({"preset", "time", "mode", "quit"})
+EDITOR_MESSAGES = frozenset({"preset", "time", "mode", "move", "press", "quit"})
 VIEWER_MESSAGES = frozenset({"ready", "state", "applied", "time", "mode", "error", "bye"})
 
 
@@ -144,6 +144,36 @@ def check_time_fields(message: dict) -> dict:
         if not isinstance(playing, bool):
             raise LinkError(f"time.playing must be true or false, got {playing!r}")
         fields["playing"] = playing
+    return fields
+
+
+MAX_MOVE_M = 1.0e5  # a teleport's target, metres from the world's origin
+
+
+def check_move(message: dict) -> dict:
+    """The valid fields of a ``move`` message: ``to`` ([x, z], world metres: teleport there),
+    ``turn_degrees`` (turn about the head, in [−180, 180]) and ``bring_bench`` (true: the
+    workbench comes along); raises ``LinkError`` naming a bad field."""
+    fields = {}
+    if "to" in message:
+        to = message["to"]
+        if not (isinstance(to, list) and len(to) == 2 and all(_is_number(v) for v in to)
+                and all(abs(v) <= MAX_MOVE_M for v in to)):  # fmt: skip
+            shown = shorten(repr(to), 60)
+            raise LinkError(f"move.to must be [x, z], numbers within ±{MAX_MOVE_M:g}, got {shown}")
+        fields["to"] = (float(to[0]), float(to[1]))
+    if "turn_degrees" in message:
+        turn = message["turn_degrees"]
+        if not _is_number(turn) or not -180.0 <= turn <= 180.0:
+            raise LinkError(f"move.turn_degrees must be a number in [-180, 180], got {turn!r}")
+        fields["turn_degrees"] = float(turn)
+    if "bring_bench" in message:
+        bring = message["bring_bench"]
+        if not isinstance(bring, bool):
+            raise LinkError(f"move.bring_bench must be true or false, got {bring!r}")
+        fields["bring_bench"] = bring
+    if not fields:
+        raise LinkError("move needs at least one of: to, turn_degrees, bring_bench")
     return fields
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,15 +32,12 @@ from sand_editor.vr.actions import (
     apply_command,
     commands_from_input,
 )
-from sand_editor.vr.backend import EyeView, Frame
+from sand_editor.vr.backend import Frame
 from sand_editor.vr.errors import NoHeadsetError
 from sand_editor.vr.grains import GrainWorker
-from sand_editor.vr.workbench import Workbench
-from sand_editor.vr.xrmath import Fov, Pose, eye_camera
+from sand_editor.vr.stage import STANDING_EYE_HEIGHT_M, Stage, between
+from sand_editor.vr.xrmath import FAR_M, NEAR_M, Fov, Pose, eye_camera
 
-NEAR_M = 0.005  # a few millimetres: the sand can be inspected from that close
-FAR_M = 20000.0
-STANDING_EYE_HEIGHT_M = 1.6
 INPUT = "input"  # the source of view changes made by the controllers, the keys or the panel
 TIME_MESSAGE_INTERVAL_S = 0.2  # at most ~5 time messages a second while scrubbing
 MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
@@ -59,6 +56,7 @@ class ViewerOptions:
     frames: int | None = None
     texture_size: int = 1024
     screenshot: Path | None = None
+    comfort: bool = True  # the vignette over teleports and snap turns
 
 
 class FrameLoop:
@@ -69,7 +67,9 @@ class FrameLoop:
         self.ctx = windows.ctx
         self.stats = FrameStats()
         self.presets = _preset_list(options.preset, options.preset_label)
-        self.controls = ViewerControls(preset_index=0, preset_count=len(self.presets))
+        self.controls = ViewerControls(
+            preset_index=0, preset_count=len(self.presets), comfort=options.comfort
+        )
         self.view = ViewModel(
             ViewState(
                 hours=options.hours,
@@ -81,14 +81,11 @@ class FrameLoop:
         self.view.connect(self._view_changed)
         self.renderer = SandRenderer(self.ctx)
         self.renderer.adapt_over_time = True
-        self.workbench = Workbench(lambda x, z: float(self.renderer.terrain.height(x, z)))
-        for mesh, origin in self.workbench.sand_objects():
-            self.renderer.add_object(mesh, origin)
+        self.stage = Stage(self.ctx, self.renderer, backend.floor_level, options.comfort)
         self.worker = GrainWorker(windows.glfw, windows.worker, options.texture_size)
         self.material = None
         self.shown_preset: Preset | None = None
         self.pending: tuple[int | None, float] | None = None  # (seq, received) of a request
-        self.world_offset: np.ndarray | None = None
         self.previous_input = InputState()
         self.previous_time: float | None = None
         self.time_dirty_since: float | None = None
@@ -124,9 +121,10 @@ class FrameLoop:
             camera = eye_camera(pose, Fov.symmetric(1.4, 4 / 3), NEAR_M, FAR_M)
             scene = self.renderer.prepare_frame(camera, show_sphere=False)
             state = self.view.state
-            self.renderer.render(target, camera, sky_at(state.hours), scene=scene)
+            self.renderer.render(target, camera, sky_at(state.hours), scene=scene,
+                                 extra=self.stage.props([pose]), depth_out=True)  # fmt: skip
             target.use()
-            self.workbench.draw(self.ctx, camera, (0, 0, 64, 48), state, "", [pose])
+            self.stage.overlay(camera, (0, 0, 64, 48), state, "", [pose])
             finish_without_gil()
         finally:
             # Nothing may stay bound to a released framebuffer (the next draw restores it).
@@ -136,7 +134,7 @@ class FrameLoop:
 
     def close(self) -> None:
         self.worker.close()
-        self.workbench.release()
+        self.stage.release()
         self.renderer.release()
 
     # ---- the loop ----------------------------------------------------------------------------
@@ -204,20 +202,21 @@ class FrameLoop:
             dt = min(max(frame.display_time_s - self.previous_time, 0.0), MAX_FRAME_STEP_S)
         self.previous_time = frame.display_time_s
         self._take_new_material()
+        self.stage.track(frame)
         self._apply_input(frame.input, dt)
         self.view.tick(dt)
         if not frame.should_render or not frame.eyes:
             return None
-        if self.world_offset is None:
-            self.world_offset = self._world_offset(frame)
-        eyes = [replace(e, pose=e.pose.translated(self.world_offset)) for e in frame.eyes]
+        eyes = self.stage.world_eyes(frame.eyes)
         cameras = [eye_camera(e.pose, e.fov, NEAR_M, FAR_M) for e in eyes]
-        head = eye_camera(_between(eyes), eyes[0].fov, NEAR_M, FAR_M)
+        head = eye_camera(between(eyes), eyes[0].fov, NEAR_M, FAR_M)
         count_levels_of_detail(self.stats, self.renderer, head, cameras)
         scene = self.renderer.prepare_frame(head, show_sphere=False)
         state = self.view.state
         sky = sky_at(state.hours)
-        rays = [self._world_pose(hand.aim) for _, hand in frame.input.hands()]
+        hands, rays = self.stage.rays(frame.input)
+        props = self.stage.props(hands)
+        name = self.presets[self._index()][0]
         screenshot = self._wants_screenshot()
         images = []
         eye_ms = []
@@ -227,11 +226,10 @@ class FrameLoop:
             with self.backend.eye_target(index) as (target, viewport):
                 exposure = self.renderer.render(
                     target, camera, sky, state.mode, viewport=viewport, scene=scene,
-                    exposure=exposure,
+                    exposure=exposure, extra=props, depth_out=True,
                 )["exposure"]  # fmt: skip
                 target.use()
-                name = self.presets[self._index()][0]
-                self.workbench.draw(self.ctx, camera, viewport, state, name, rays)
+                self.stage.overlay(camera, viewport, state, name, rays)
                 finish_without_gil()
                 if screenshot:
                     images.append(read_pixels(target, viewport))
@@ -279,19 +277,35 @@ class FrameLoop:
     # ---- input ---------------------------------------------------------------------------------
 
     def _apply_input(self, state: InputState, dt: float) -> None:
-        before = self.controls
-        for hand, hand_input in state.hands():
-            self.workbench.aim(hand, self._world_pose(hand_input.aim))
+        self.stage.aim_hands(state)
         for command in commands_from_input(self.previous_input, state, dt):
             if command.kind == "press":
                 command = self.workbench.press(command.hand)
                 if command is None:
-                    continue
-            self.controls, changes = apply_command(self.controls, self.view.state, command)
-            self.view.update(INPUT, **changes)
+                    continue  # a trigger away from the panel aims a teleport instead
+            self.run_command(command)
+        self.stage.locomote(self.previous_input, state)
         self.previous_input = state
+
+    def run_command(self, command) -> None:
+        """A command from the controllers, the keys, the panel or the link."""
+        if command.kind == "bring_bench":
+            self.stage.bring_bench()
+            return
+        before = self.controls
+        self.controls, changes = apply_command(self.controls, self.view.state, command)
+        self.view.update(INPUT, **changes)
+        self.stage.locomotion.comfort = self.controls.comfort
         if self.controls.preset_index != before.preset_index:
             self.worker.request(self.presets[self._index()][1])
+
+    @property
+    def workbench(self):
+        return self.stage.workbench
+
+    def move(self, **fields) -> None:
+        """A ``move`` from the link (``Stage.move``)."""
+        self.stage.move(**fields)
 
     def _view_changed(self, state: ViewState, names: frozenset, source) -> None:
         """What the user changed here goes to the editor (the clock's ticks do not: the editor
@@ -342,21 +356,6 @@ class FrameLoop:
     def _index(self) -> int:
         return self.controls.preset_index % len(self.presets)
 
-    def _world_offset(self, frame: Frame) -> np.ndarray:
-        """Tracking space → world: the standing point on the dune; a space whose origin is
-        the head (LOCAL) is lifted to a standing eye height."""
-        ground = float(self.renderer.terrain.height(0.0, 0.0))
-        lift = 0.0
-        if not self.backend.floor_level:
-            head_y = float(_between(frame.eyes).position[1])
-            lift = max(STANDING_EYE_HEIGHT_M - head_y, 0.0)
-        return np.array([0.0, ground + lift, 0.0])
-
-    def _world_pose(self, pose: Pose | None) -> Pose | None:
-        if pose is None or self.world_offset is None:
-            return None
-        return pose.translated(self.world_offset)
-
     def _wants_screenshot(self) -> bool:
         if self.options.screenshot is None:
             return False
@@ -374,12 +373,6 @@ class FrameLoop:
 
     def report(self) -> dict:
         return loop_report(self)
-
-
-def _between(eyes: list[EyeView]) -> Pose:
-    """The head: midway between the eyes, facing as the first eye does."""
-    position = np.mean([e.pose.position for e in eyes], axis=0)
-    return Pose(tuple(float(v) for v in position), eyes[0].pose.orientation)
 
 
 def _preset_list(preset: Preset, label: str) -> list[tuple[str, Preset]]:

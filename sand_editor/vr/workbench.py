@@ -1,6 +1,9 @@
-"""The workbench: a block of sand at hand height with a sand sphere on it, and a panel at its
-back showing the time, day speed, sand and mode, with buttons pressed by aiming a controller
-ray at them and pulling the trigger."""
+"""The workbench: a desk at hand height with a tray of the sand being edited and a sand sphere
+on it, and a panel at its back showing the time, day speed, sand and mode, with buttons pressed
+by aiming a controller ray at them and pulling the trigger. It stands in front of the user, and
+can be brought along (``Workbench(..., stand_xz, yaw)`` again) after a teleport.
+
+The shapes are ``bench_meshes``'; the GL drawing is ``bench_draw``'s."""
 
 from __future__ import annotations
 
@@ -12,19 +15,16 @@ import moderngl
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from sand_editor.gl import GLObjects, program, render_state, set_matrix
 from sand_editor.render.camera import Camera
-from sand_editor.render.terrain import _grid_index, sphere_mesh
 from sand_editor.view import ViewState, format_time
 from sand_editor.vr.actions import Command
+from sand_editor.vr.bench_draw import BenchGraphics
+from sand_editor.vr.bench_meshes import DESK_SIZE_M, DeskLayout, controller_props
 
-TABLE_HEIGHT_M = 0.85  # top of the block above the ground
-TABLE_SIZE_M = (0.7, 0.45)  # width (x), depth (z)
-TABLE_DISTANCE_M = 0.65  # from the standing point to the block's centre, northwards (−z)
-SPHERE_RADIUS_M = 0.07
 PANEL_SIZE_M = (0.48, 0.27)
 PANEL_TILT_DEG = 25.0  # leaning back, towards the sky
-PANEL_PIXELS = (768, 432)
+PANEL_PIXELS = (1024, 576)  # about 2100 pixels per metre: sharp at a headset's 20–25 px/°
+PANEL_OFFSET_M = (-0.05, -0.24)  # its lower edge's middle from the desk top's (x, z)
 RAY_LENGTH_M = 3.0
 
 # Buttons in panel coordinates (u right, v up, 0..1), one row along the bottom edge:
@@ -37,6 +37,7 @@ _BUTTON_ROW = [
     ("faster", "faster", Command("speed_step", 1)),
     ("sand", "sand >", Command("next_preset")),
     ("lambert", "Lambert", Command("toggle_lambert")),
+    ("comfort", "vignette", Command("toggle_comfort")),
 ]
 _ROW_V = (0.04, 0.21)
 _ROW_U = (0.015, 0.985)
@@ -105,75 +106,33 @@ def button_at(u: float, v: float) -> str | None:
     return None
 
 
-def box_mesh(center, size, origin=None) -> dict:
-    """An axis-aligned box, each face with its own normal and tangent and ``uv`` in metres
-    along the face (same handedness as the terrain: cross(tangent, normal) is +v)."""
-    center = np.asarray(center, dtype=np.float64)
-    half = np.asarray(size, dtype=np.float64) / 2
-    faces = [  # normal, tangent
-        ((0, 1, 0), (1, 0, 0)),
-        ((0, -1, 0), (1, 0, 0)),
-        ((1, 0, 0), (0, 0, -1)),
-        ((-1, 0, 0), (0, 0, 1)),
-        ((0, 0, 1), (1, 0, 0)),
-        ((0, 0, -1), (-1, 0, 0)),
-    ]
-    positions, normals, tangents, uvs, indices = [], [], [], [], []
-    for normal, tangent in faces:
-        n, t = np.array(normal, float), np.array(tangent, float)
-        b = np.cross(t, n)
-        corners = [n * half + su * t * half + sv * b * half for su, sv in _QUAD]
-        base = len(positions)
-        for corner in corners:
-            p = center + corner
-            positions.append(p)
-            normals.append(n)
-            tangents.append(t)
-            uvs.append((float(np.dot(p, t)), float(np.dot(p, b))))
-        indices.extend(base + _grid_index(2, 2))
-    position = np.array(positions)
-    if origin is not None:
-        position = position - np.asarray(origin, dtype=np.float64)
-    return {
-        "position": position.astype(np.float32),
-        "normal": np.array(normals, np.float32),
-        "tangent": np.array(tangents, np.float32),
-        "uv": np.array(uvs, np.float32),
-        "index": np.array(indices, np.uint32),
-    }
-
-
-_QUAD = ((-1, -1), (1, -1), (-1, 1), (1, 1))  # row-major 2 × 2 grid for _grid_index
-
-
 class Workbench:
-    """Places the block, the sphere and the panel on the ground below ``stand_xz`` and draws
-    the panel and the rays over each eye's image."""
+    """The desk for a user standing at ``stand_xz`` facing ``yaw`` (radians about +y, 0 looks
+    along −z) on ground ``ground_height(x, z)``: its sand objects for the renderer, the panel
+    and what each hand points at, and its drawing."""
 
-    def __init__(self, ground_height, stand_xz=(0.0, 0.0)) -> None:
-        x, z = stand_xz[0], stand_xz[1] - TABLE_DISTANCE_M
-        ground = float(ground_height(x, z))
-        self.table_top = ground + TABLE_HEIGHT_M
-        depth_below = 0.3  # the block reaches into the dune, whatever its slope
-        height = TABLE_HEIGHT_M + depth_below
-        self.table_center = np.array([x, ground + TABLE_HEIGHT_M - height / 2, z])
-        self.table_size = (TABLE_SIZE_M[0], height, TABLE_SIZE_M[1])
-        self.sphere_center = np.array([x + 0.17, self.table_top + SPHERE_RADIUS_M, z + 0.05])
+    def __init__(self, ground_height, stand_xz=(0.0, 0.0), yaw: float = 0.0) -> None:
+        self.layout = DeskLayout(ground_height, stand_xz, yaw)
+        self.ground_height = ground_height
+        self.table_top = self.layout.top
+        rotation = self.layout.rotation
         tilt = math.radians(PANEL_TILT_DEG)
-        up = np.array([0.0, math.cos(tilt), -math.sin(tilt)])
-        back = z - TABLE_SIZE_M[1] / 2 + 0.05
-        center = np.array([x - 0.08, self.table_top + 0.02 + PANEL_SIZE_M[1] / 2 * up[1], back])
-        self.panel = PanelFrame(center, np.array([1.0, 0.0, 0.0]), up, PANEL_SIZE_M)
+        up = rotation @ np.array([0.0, math.cos(tilt), -math.sin(tilt)])
+        edge = self.layout.on_desk(PANEL_OFFSET_M[0], PANEL_OFFSET_M[1], 0.015)
+        center = edge + up * PANEL_SIZE_M[1] / 2
+        self.panel = PanelFrame(center, rotation @ np.array([1.0, 0.0, 0.0]), up, PANEL_SIZE_M)
         self.hovered: dict[str, str | None] = {}
-        self._ctx = None
+        self._graphics: BenchGraphics | None = None
+        self._panel_key = None
 
     def sand_objects(self) -> list[tuple[dict, np.ndarray]]:
-        """(mesh, origin) of the sand-covered objects: the block and the sphere."""
-        return [
-            (box_mesh(self.table_center, self.table_size, self.table_center), self.table_center),
-            (sphere_mesh(self.sphere_center, SPHERE_RADIUS_M, 48, self.sphere_center),
-             self.sphere_center),
-        ]  # fmt: skip
+        """(mesh, origin) of the sand-covered objects: the sand in the tray and the sphere."""
+        return self.layout.sand_objects()
+
+    def contains(self, point) -> bool:
+        """Whether ``point`` (world) lies over the desk: no teleporting into it."""
+        local = self.layout.rotation.T @ (np.asarray(point, float) - self.layout.origin)
+        return abs(local[0]) <= DESK_SIZE_M[0] / 2 and abs(local[2]) <= DESK_SIZE_M[2] / 2
 
     # ---- pointing --------------------------------------------------------------------------
 
@@ -206,91 +165,69 @@ class Workbench:
         """The panel as an RGB image (top row first)."""
         clock, state, speed, sand, mode, play, hovered = self.panel_text(state, preset_name)
         width, height = PANEL_PIXELS
+        k = width / 768  # the layout is drawn for 768 pixels across
         image = Image.new("RGB", PANEL_PIXELS, (28, 24, 20))
         draw = ImageDraw.Draw(image)
-        big, small, label_font = _font(96), _font(40), _font(24)
+        big, small, label_font = _font(round(96 * k)), _font(round(40 * k)), _font(round(24 * k))
         text_colour = (230, 220, 200)
-        draw.text((28, 12), clock, font=big, fill=(255, 236, 200))
-        draw.text((330, 24), state, font=small, fill=text_colour)
-        draw.text((330, 70), speed, font=small, fill=text_colour)
-        draw.text((28, 150), sand, font=small, fill=text_colour)
-        draw.text((28, 205), mode, font=small, fill=text_colour)
+        draw.text((28 * k, 12 * k), clock, font=big, fill=(255, 236, 200))
+        draw.text((330 * k, 24 * k), state, font=small, fill=text_colour)
+        draw.text((330 * k, 70 * k), speed, font=small, fill=text_colour)
+        draw.text((28 * k, 150 * k), sand, font=small, fill=text_colour)
+        draw.text((28 * k, 205 * k), mode, font=small, fill=text_colour)
         for name, (u0, v0, u1, v1, label, _command) in BUTTONS.items():
             label = play if name == "play" else label
             box = (u0 * width, (1 - v1) * height, u1 * width, (1 - v0) * height)
             fill = (214, 160, 80) if name in hovered else (70, 60, 50)
-            draw.rounded_rectangle(box, radius=10, fill=fill, outline=(150, 130, 100), width=2)
+            draw.rounded_rectangle(box, radius=10 * k, fill=fill, outline=(150, 130, 100),
+                                   width=round(2 * k))  # fmt: skip
             left = (box[0] + box[2] - draw.textlength(label, font=label_font)) / 2
-            draw.text((left, box[1] + 20), label, font=label_font, fill=(255, 255, 255))
+            draw.text((left, box[1] + 20 * k), label, font=label_font, fill=(255, 255, 255))
         return image
 
-    def draw(
-        self,
-        ctx: moderngl.Context,
-        camera: Camera,
-        viewport: tuple[int, int, int, int],
-        state: ViewState,
-        preset_name: str,
-        rays: list,
-    ) -> None:
-        """Panel and ``rays`` (poses of aiming hands) over the image already in the bound
-        framebuffer's ``viewport``."""
-        if self._ctx is None:
-            self._create(ctx)
+    def draw_props(self, ctx: moderngl.Context, camera: Camera, sky, hands: list) -> None:
+        """The desk, the tray's walls and a body for each tracked controller (``hands``: aim
+        poses in the world, None while untracked), into the renderer's HDR scene."""
+        graphics = self._gl(ctx)
+        moving = [controller_props(pose) for pose in hands if pose is not None]
+        graphics.draw_props(camera, sky, np.vstack(moving) if moving else None)
+
+    def draw(self, ctx: moderngl.Context, camera: Camera, viewport, state: ViewState,
+             preset_name: str, rays: list, aim=None) -> None:  # fmt: skip
+        """Panel, ``rays`` (poses of aiming hands) and the teleport ``aim`` over the image (and
+        depth) already in the bound framebuffer's ``viewport``."""
+        graphics = self._gl(ctx)
         key = self.panel_text(state, preset_name)
         if key != self._panel_key:
             image = self.panel_image(state, preset_name).transpose(Image.FLIP_TOP_BOTTOM)
-            self._texture.write(image.tobytes())
-            self._texture.build_mipmaps()
+            graphics.panel_texture.write(image.tobytes())
+            graphics.panel_texture.build_mipmaps()
             self._panel_key = key
         ctx.viewport = viewport
-        with render_state(ctx):
-            self._draw_overlay(camera, rays)
-
-    def _draw_overlay(self, camera: Camera, rays) -> None:
-        prog = self._program
-        set_matrix(prog, "u_view_projection", camera.projection @ camera.view)
-        prog["u_textured"].value = True
-        self._texture.use(location=0)
-        prog["u_panel"].value = 0
-        self._panel_vao.render(moderngl.TRIANGLE_FAN)
-        prog["u_textured"].value = False
+        segments = []
         for pose in rays:
             if pose is None:
                 continue
             hit = self.panel.hit(pose.position, pose.forward)
-            length = hit[2] if hit else RAY_LENGTH_M
             start = np.asarray(pose.position)
-            end = start + pose.forward * length
-            self._ray_buffer.write(np.array([*start, 0, 0, *end, 0, 0], np.float32).tobytes())
-            prog["u_colour"].value = (1.0, 0.85, 0.4, 1.0) if hit else (0.8, 0.8, 0.9, 1.0)
-            self._ray_vao.render(moderngl.LINES)
+            segments.append((start, start + pose.forward * (hit[2] if hit else RAY_LENGTH_M), hit))
+        graphics.draw_overlay(camera, segments, aim)
 
-    def _create(self, ctx: moderngl.Context) -> None:
-        self._ctx = ctx
-        self._owned = GLObjects()
-        keep = self._owned.keep
-        self._program = keep(program(ctx, "vr_overlay.glsl"))
-        corners = self.panel.corners()
-        uv = np.array([(0, 0), (1, 0), (1, 1), (0, 1)], float)
-        vertices = np.hstack([corners, uv]).astype(np.float32)
-        self._panel_buffer = keep(ctx.buffer(vertices.tobytes()))
-        self._panel_vao = keep(
-            ctx.vertex_array(self._program, [(self._panel_buffer, "3f 2f", "a_position", "a_uv")])
-        )
-        self._ray_buffer = keep(ctx.buffer(reserve=2 * 5 * 4))
-        self._ray_vao = keep(
-            ctx.vertex_array(self._program, [(self._ray_buffer, "3f 2x4", "a_position")])
-        )
-        self._texture = keep(ctx.texture(PANEL_PIXELS, 3))
-        self._texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-        self._panel_key = None
+    def draw_vignette(self, ctx: moderngl.Context, viewport, strength: float) -> None:
+        self._gl(ctx).draw_vignette(viewport, strength)
+
+    def _gl(self, ctx: moderngl.Context) -> BenchGraphics:
+        if self._graphics is None:
+            self._graphics = BenchGraphics(ctx, PANEL_PIXELS)
+            self._graphics.set_fixed(self.layout.props(), self.layout.origin)
+            self._graphics.set_panel(self.panel.corners())
+            self._panel_key = None
+        return self._graphics
 
     def release(self) -> None:
-        if self._ctx is None:
-            return
-        self._owned.release()
-        self._ctx = None
+        if self._graphics is not None:
+            self._graphics.release()
+            self._graphics = None
 
 
 def _speed_text(speed: float) -> str:

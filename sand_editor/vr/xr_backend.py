@@ -20,7 +20,7 @@ from sand_editor.vr.backend import EyeView, Frame
 from sand_editor.vr.errors import RUNTIME_HELP, GraphicsError, NoHeadsetError, NoRuntimeError
 from sand_editor.vr.xr_input import ControllerInput, as_pose
 from sand_editor.vr.xr_swapchains import STEREO, EyeSwapchains
-from sand_editor.vr.xrmath import Fov
+from sand_editor.vr.xrmath import FAR_M, NEAR_M, Fov
 
 _ACTION_TYPES = {
     "boolean": xr.ActionType.BOOLEAN_INPUT,
@@ -44,6 +44,9 @@ def create_instance() -> xr.Instance:
             raise GraphicsError(
                 "the active OpenXR runtime does not offer OpenGL (XR_KHR_opengl_enable)"
             )
+        extensions = [xr.KHR_OPENGL_ENABLE_EXTENSION_NAME]
+        if xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME in available:
+            extensions.append(xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME)
         return xr.create_instance(
             xr.InstanceCreateInfo(
                 application_info=xr.ApplicationInfo(
@@ -51,7 +54,7 @@ def create_instance() -> xr.Instance:
                     engine_name="sand-editor",
                     api_version=xr.Version(1, 0, xr.XR_VERSION_PATCH),
                 ),
-                enabled_extension_names=[xr.KHR_OPENGL_ENABLE_EXTENSION_NAME],
+                enabled_extension_names=extensions,
             )
         )
     except _RUNTIME_ERRORS as exc:
@@ -112,6 +115,9 @@ class XrBackend:
         self._teardown = ExitStack()
         self.exiting = False
         self.instance = create_instance()
+        self.depth_offered = xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME in (
+            xr.enumerate_instance_extension_properties()
+        )
         self._teardown.callback(xr.destroy_instance, self.instance)
         try:
             self._start(windows_factory, render_scale)
@@ -162,9 +168,12 @@ class XrBackend:
         )
         self._teardown.callback(xr.destroy_space, self.space)
         self._swapchains = EyeSwapchains(
-            instance, self.system_id, self.session, self.ctx, render_scale, self._teardown
-        )
+            instance, self.system_id, self.session, self.ctx, render_scale, self._teardown,
+            depth=self.depth_offered, near_far=(NEAR_M, FAR_M),
+        )  # fmt: skip
         self.swapchain_format = self._swapchains.format
+        self.depth_format = self._swapchains.depth_format
+        self.depth_submitted = self._swapchains.depth_submitted
         self.views = self._swapchains.views
         self._create_actions()
         self._running = False

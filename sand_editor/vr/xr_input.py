@@ -45,11 +45,12 @@ class ControllerInput:
         hands = {}
         for hand, path in self._hand_paths.items():
             hands[hand] = HandInput(
-                stick=self._vector(actions["scrub"], path),
+                stick=self._vector(actions["scrub" if hand == "left" else "locomote"], path),
                 select=self._float(actions["select"], path),
                 play_pause=self._boolean(actions["play_pause"], path),
                 next_preset=self._boolean(actions["next_preset"], path),
                 toggle_lambert=self._boolean(actions["toggle_lambert"], path),
+                bring_bench=self._boolean(actions["bring_bench"], path),
                 aim=self._aim(hand, display_time),
             )
         return InputState(**hands)

@@ -13,6 +13,10 @@ import numpy as np
 
 from sand_editor.render.camera import Camera
 
+# The eyes' clip planes (the compositor is told them with the depth it is given).
+NEAR_M = 0.005  # a few millimetres: the sand can be inspected from that close
+FAR_M = 20000.0
+
 
 @dataclass(frozen=True)
 class Pose:

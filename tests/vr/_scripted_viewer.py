@@ -60,21 +60,34 @@ def main() -> None:
             + ((u0 + u1) / 2 - 0.5) * panel.size[0] * panel.right
             + ((v0 + v1) / 2 - 0.5) * panel.size[1] * panel.up
         )
-        # The aim pose is in tracking space: the loop adds the world offset.
-        origin = point + 0.6 * panel.normal - loop.world_offset
-        direction = point - loop.world_offset - origin
+        # The aim pose is in tracking space: the loop moves it by the tracking origin (not
+        # turned yet when the panel is pressed).
+        offset = loop.stage.locomotion.origin.offset
+        origin = point + 0.6 * panel.normal - offset
+        direction = point - offset - origin
         yaw = math.atan2(-direction[0], -direction[2])
         pitch = math.atan2(direction[1], math.hypot(direction[0], direction[2]))
         return Pose.from_yaw_pitch(origin, yaw, pitch)
 
+    # Thrown forwards and a little up from a hand below the eyes: lands some 20 m ahead.
+    throw = Pose.from_yaw_pitch((0.15, 1.2, -0.1), 0.0, math.radians(20.0))
+
     def script(frame: int) -> InputState:
-        if 5 <= frame < 25:  # stick right: the clock runs forwards
-            return InputState(right=HandInput(stick=(1.0, 0.0)))
+        if 5 <= frame < 25:  # left stick right: the clock runs forwards
+            return InputState(left=HandInput(stick=(1.0, 0.0)))
         if 30 <= frame < 34:  # aim at the Lambert button, then pull the trigger
             return InputState(left=HandInput(aim=aim_at("lambert"), select=float(frame >= 32)))
         if frame == 40:
             return InputState(right=HandInput(next_preset=True))
-        return InputState()
+        if 50 <= frame < 58:  # right stick forward: aim the arc; let go: teleport
+            return InputState(right=HandInput(stick=(0.0, 1.0), aim=throw))
+        if 64 <= frame < 66:  # right stick right: one snap turn, however long it is held
+            return InputState(right=HandInput(stick=(1.0, 0.0), aim=throw))
+        if 70 <= frame < 78:  # the trigger held away from the panel: aim; released: teleport
+            return InputState(right=HandInput(select=1.0, aim=throw))
+        if frame == 84:
+            return InputState(left=HandInput(bring_bench=True))
+        return InputState(right=HandInput(aim=throw))
 
     link = RecordingLink()
     options = ViewerOptions(
@@ -90,6 +103,7 @@ def main() -> None:
         loop.start()
         loop.run()
         report = loop.report()
+        report["bench_at"] = [float(v) for v in loop.workbench.layout.origin]
         shown = loop.shown_preset.name
     finally:
         loop.close()

@@ -94,18 +94,20 @@ def test_every_profile_binds_both_aims_and_a_trigger(profile):
 
 def test_stick_scrubs_the_time_proportionally_and_respects_the_dead_zone():
     rest = InputState()
-    full = InputState(right=HandInput(stick=(1.0, 0.0)))
+    full = InputState(left=HandInput(stick=(1.0, 0.0)))
     (scrub,) = commands_from_input(rest, full, 0.5)
+    # The right stick is locomotion's: it does not scrub.
+    assert commands_from_input(rest, InputState(right=HandInput(stick=(1.0, 1.0))), 0.5) == []
     assert scrub.kind == "scrub" and scrub.value == pytest.approx(SCRUB_HOURS_PER_S * 0.5)
-    assert commands_from_input(rest, InputState(right=HandInput(stick=(0.15, -0.1))), 0.5) == []
+    assert commands_from_input(rest, InputState(left=HandInput(stick=(0.15, -0.1))), 0.5) == []
     (back,) = commands_from_input(rest, InputState(left=HandInput(stick=(-0.6, 0.0))), 1.0)
     assert back.value == pytest.approx(-0.5 * SCRUB_HOURS_PER_S)
 
 
 def test_non_finite_input_and_time_step_do_nothing():
-    broken = InputState(right=HandInput(stick=(float("nan"), float("inf"))))
+    broken = InputState(left=HandInput(stick=(float("nan"), float("inf"))))
     assert commands_from_input(InputState(), broken, 0.1) == []
-    full = InputState(right=HandInput(stick=(1.0, 0.0)))
+    full = InputState(left=HandInput(stick=(1.0, 0.0)))
     assert commands_from_input(InputState(), full, float("nan")) == []
 
 

@@ -4,6 +4,7 @@ panel buttons work through a ray and the trigger, sands cycle with new grains.""
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -22,7 +23,7 @@ pytestmark = pytest.mark.skipif(not os.environ.get("DISPLAY"), reason="needs an 
 @pytest.fixture(scope="module")
 def scripted():
     result = subprocess.run(
-        [sys.executable, str(Path(__file__).with_name("_scripted_viewer.py")), "80"],
+        [sys.executable, str(Path(__file__).with_name("_scripted_viewer.py")), "100"],
         cwd=REPO,
         capture_output=True,
         text=True,
@@ -56,3 +57,28 @@ def test_next_sand_shows_the_next_shipped_preset(scripted):
     assert scripted["report"]["final"]["preset"] != "paper-default"
     assert scripted["shown_preset"] != "paper-default"
     assert scripted["report"]["errors"] == []
+
+
+def test_teleports_by_stick_and_by_trigger_and_one_snap_turn(scripted):
+    moves = scripted["report"]["locomotion"]
+    assert moves["teleports"] == 2
+    assert moves["snap_turns"] == 1
+    assert moves["yaw_deg"] == pytest.approx(-30.0)
+    x, _, z = moves["head_in_world"]
+    # Two throws of ~20 m, the second turned 30° to the right of the first.
+    assert 25.0 < math.hypot(x, z) < 60.0
+    assert x > 3.0 and z < -20.0
+
+
+def test_the_workbench_stays_until_brought_and_then_stands_before_the_user(scripted):
+    moves = scripted["report"]["locomotion"]
+    assert moves["bench_moves"] == 1
+    bx, _, bz = scripted["report"]["bench_at"]
+    x, _, z = moves["head_in_world"]
+    assert math.hypot(bx - x, bz - z) == pytest.approx(0.55, abs=0.05)
+
+
+def test_walking_far_rebuilds_the_terrain_once_per_level_of_detail_change(scripted):
+    report = scripted["report"]
+    assert report["terrain_meshes_built"] <= report["head_level_of_detail_changes"]
+    assert report["terrain_meshes_built"] >= 2  # the teleports moved the rings

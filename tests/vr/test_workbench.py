@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from sand_editor.view import ViewState
-from sand_editor.vr.workbench import BUTTONS, PANEL_PIXELS, Workbench, box_mesh, button_at
+from sand_editor.vr.bench_meshes import (
+    DESK_HEIGHT_M,
+    box_mesh,
+    box_props,
+    controller_props,
+    yaw_rotation,
+)
+from sand_editor.vr.workbench import BUTTONS, PANEL_PIXELS, Workbench, button_at
 from sand_editor.vr.xrmath import Pose
 
 
@@ -25,10 +32,36 @@ def _aim_at(point, origin=(0.1, 1.3, 0.2)) -> Pose:
     return Pose.from_yaw_pitch(origin, yaw, pitch)
 
 
-def test_the_block_stands_on_the_ground_at_hand_height(bench):
-    assert bench.table_top == pytest.approx(0.25 + 0.85)
-    bottom = bench.table_center[1] - bench.table_size[1] / 2
-    assert bottom < 0.25  # reaches into the dune
+def test_the_desk_stands_on_the_ground_at_hand_height_with_its_legs_in_the_dune(bench):
+    assert bench.table_top == pytest.approx(0.25 + DESK_HEIGHT_M)
+    props = bench.layout.props()
+    assert props.shape[1] == 9 and len(props) % 3 == 0
+    assert props[:, 1].min() < 0.25  # the legs reach into the dune
+    assert props[:, 1].max() == pytest.approx(bench.table_top + 0.05, abs=1e-6)  # tray rim
+
+
+def test_the_sand_lies_in_the_tray_below_its_rim_and_the_sphere_on_the_desk(bench):
+    (sand, sand_origin), (sphere, sphere_origin) = bench.sand_objects()
+    top = sand["position"][:, 1].max() + sand_origin[1]
+    assert bench.table_top < top < bench.table_top + 0.05
+    lowest = sphere["position"][:, 1].min() + sphere_origin[1]
+    assert lowest == pytest.approx(bench.table_top, abs=2e-3)
+    assert bench.contains(sand_origin) and bench.contains(sphere_origin)
+    assert not bench.contains((0.0, 0.0, 0.0))  # where the user stands
+
+
+def test_the_bench_turned_to_face_the_user_keeps_its_shape():
+    ahead = Workbench(lambda x, z: 0.0)
+    turned = Workbench(lambda x, z: 0.0, stand_xz=(5.0, -3.0), yaw=math.radians(90))
+    # Facing −x now: the desk's middle lies 0.55 m along −x from the standing point.
+    np.testing.assert_allclose(turned.layout.origin[[0, 2]], (5.0 - 0.55, -3.0), atol=1e-9)
+    np.testing.assert_allclose(
+        np.sort(np.linalg.norm(turned.panel.corners() - turned.panel.center, axis=1)),
+        np.sort(np.linalg.norm(ahead.panel.corners() - ahead.panel.center, axis=1)),
+    )
+    # The panel faces the user: its front looks back at the standing point.
+    to_user = np.array([5.0, turned.panel.center[1], -3.0]) - turned.panel.center
+    assert np.dot(turned.panel.normal, to_user) > 0
 
 
 def test_a_ray_at_each_button_hits_that_button(bench):
@@ -104,4 +137,33 @@ def test_box_faces_point_outwards_with_tangents_in_the_face():
     for triangle in mesh["index"].reshape(-1, 3):
         a, b, c = positions[triangle]
         face_normal = np.cross(b - a, c - a)
-        assert np.dot(face_normal, mesh["normal"][triangle[0]]) != 0
+        # Counter-clockwise seen from outside: the face culling keeps it.
+        assert np.dot(face_normal, mesh["normal"][triangle[0]]) > 0
+
+
+def test_each_face_is_mapped_in_metres_along_it_even_when_turned():
+    size = (0.4, 0.2, 0.6)
+    for yaw in (0.0, 0.7, -2.5):
+        mesh = box_mesh((3.0, 1.0, -2.0), size, rotation=yaw_rotation(yaw))
+        uv = mesh["uv"].reshape(6, 4, 2)
+        spans = sorted(tuple(np.round(np.ptp(face, axis=0), 6)) for face in uv)
+        assert spans == sorted(
+            [(0.4, 0.6), (0.4, 0.6), (0.6, 0.2), (0.6, 0.2), (0.4, 0.2), (0.4, 0.2)]
+        )
+        # A texel's step in uv is the same distance on the face: no stretching, no stripes.
+        p, u = mesh["position"].reshape(6, 4, 3).astype(float), uv.astype(float)
+        for face_p, face_uv in zip(p, u, strict=True):
+            d_p = np.linalg.norm(face_p[1] - face_p[0])
+            d_uv = np.linalg.norm(face_uv[1] - face_uv[0])
+            assert d_p == pytest.approx(d_uv, rel=1e-5)
+
+
+def test_controller_bodies_follow_the_aim_pose():
+    pose = Pose.from_yaw_pitch((1.0, 1.2, -0.5), math.radians(40), math.radians(-20))
+    rows = controller_props(pose)
+    assert len(rows) == 2 * 36 and np.all(np.isfinite(rows))
+    centre = rows[:, :3].mean(axis=0)
+    # The grip lies behind the aim point, against the ray.
+    assert np.dot(centre - np.asarray(pose.position), pose.forward) < 0
+    assert np.linalg.norm(centre - np.asarray(pose.position)) < 0.15
+    assert box_props((0, 0, 0), (1, 1, 1), (0.5, 0.5, 0.5)).shape == (36, 9)
