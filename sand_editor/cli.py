@@ -140,6 +140,7 @@ def _cmd_vr(args) -> int:
         frames=args.frames,
         texture_size=args.texture_size,
         screenshot=Path(args.screenshot) if args.screenshot else None,
+        comfort=not args.no_comfort,
     )
     return run_viewer(
         options,
@@ -194,6 +195,12 @@ def _cmd_bench(args) -> int:
         from sand_editor.bench.vr_runtime import main as bench_vr_runtime
 
         return bench_vr_runtime(quick=args.quick, json_path=args.json)
+    if args.what == "gpu":
+        if args.plot:
+            raise CommandError("--plot does not apply to the gpu benchmark")
+        from sand_editor.bench.gpu import main as bench_gpu
+
+        return bench_gpu(quick=args.quick, sizes=args.sizes, json_path=args.json)
     raise CommandError(f"unknown benchmark {args.what!r}")
 
 
@@ -276,6 +283,11 @@ def _parser() -> argparse.ArgumentParser:
         metavar="FILE.png",
         help="save both eyes of the last frame side by side (PNG)",
     )
+    vr.add_argument(
+        "--no-comfort",
+        action="store_true",
+        help="no vignette over teleports and snap turns (the panel's comfort button toggles it)",
+    )
     vr.set_defaults(run=_cmd_vr)
 
     bench = sub.add_parser("bench", help="measure speed against error")
@@ -290,6 +302,7 @@ def _parser() -> argparse.ArgumentParser:
             "editor",
             "vr-link",
             "vr-runtime",
+            "gpu",
         ],
         help="what to measure",
     )

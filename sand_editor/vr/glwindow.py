@@ -1,9 +1,12 @@
 """GLX contexts from GLFW windows: the one the viewer renders with (visible for the desktop
 preview, hidden for a headset) and a hidden one sharing its objects, for the thread that makes
-new grain textures while frames keep being drawn."""
+new grain textures while frames keep being drawn; and the same pair as EGL contexts with no
+window (``HeadlessContexts``), where there is no display."""
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import os
 
 import moderngl
@@ -71,3 +74,131 @@ class GLWindows:
                 glfw.destroy_window(window)
         self.window = self.worker = None
         glfw.terminate()
+
+
+class HeadlessContexts:
+    """What ``GLWindows`` gives the frame loop, with no display: two EGL contexts sharing
+    objects (with each other and with this thread's ``sand_editor.gl.standalone_context``, whose
+    display they use), the drawing one (``ctx``) current on this thread and ``worker`` for the
+    grain thread (``GrainWorker`` with ``glfw`` None).
+
+    There is no window: the backend draws into framebuffers of its own (``vr.headless``), and
+    ``ctx.screen`` is a framebuffer nothing is drawn into.
+    """
+
+    glfw = None
+
+    def __init__(self) -> None:
+        from sand_editor.gl import standalone_context
+
+        standalone_context()
+        self.worker = SharedEGLContext()
+        self._drawing = SharedEGLContext()
+        try:
+            self.ctx = self._drawing.context()
+        except BaseException:
+            self._drawing.release()
+            self.worker.release()
+            raise
+
+    def make_current(self) -> None:
+        self._drawing.__enter__()
+
+    def close(self) -> None:
+        self.ctx.release()  # destroys the drawing context
+        self.worker.release()
+
+
+# EGL's names for what a shared context is asked to be: an OpenGL 3.3 core context like
+# glcontext's headless one (8-bit RGB, a depth buffer, made for pbuffers it never draws into).
+_EGL_NONE = 0x3038
+_EGL_OPENGL_API = 0x30A2
+_EGL_CONFIG = (
+    (0x3033, 0x0001),  # EGL_SURFACE_TYPE: EGL_PBUFFER_BIT
+    (0x3024, 8), (0x3023, 8), (0x3022, 8),  # EGL_RED_SIZE, EGL_GREEN_SIZE, EGL_BLUE_SIZE
+    (0x3025, 8),  # EGL_DEPTH_SIZE
+    (0x3040, 0x0008),  # EGL_RENDERABLE_TYPE: EGL_OPENGL_BIT
+)  # fmt: skip
+_EGL_CONTEXT = (
+    (0x3098, REQUIRED_GL[0]),  # EGL_CONTEXT_MAJOR_VERSION
+    (0x30FB, REQUIRED_GL[1]),  # EGL_CONTEXT_MINOR_VERSION
+    (0x30FD, 0x0001),  # EGL_CONTEXT_OPENGL_PROFILE_MASK: core
+)
+
+
+class SharedEGLContext:
+    """An EGL context sharing objects with the one current on the thread that makes it, for
+    another thread: ``context()`` makes it current there and returns it as a moderngl context,
+    whose ``release`` destroys it. It has no surface: it draws into framebuffers only."""
+
+    def __init__(self) -> None:
+        egl = self._egl = _egl_library()
+        self._display = egl.eglGetCurrentDisplay()
+        share = egl.eglGetCurrentContext()
+        if not self._display or not share:
+            raise WindowError("no EGL context is current on this thread to share objects with")
+        config = ctypes.c_void_p()
+        count = ctypes.c_int32()
+        chosen = egl.eglChooseConfig(
+            self._display, _attributes(_EGL_CONFIG), ctypes.byref(config), 1, ctypes.byref(count)
+        )
+        if not chosen or not count.value:
+            raise WindowError(f"no EGL config for a shared context (0x{egl.eglGetError():x})")
+        egl.eglBindAPI(_EGL_OPENGL_API)
+        self._handle = egl.eglCreateContext(self._display, config, share, _attributes(_EGL_CONTEXT))
+        if not self._handle:
+            raise WindowError(f"could not create a shared EGL context (0x{egl.eglGetError():x})")
+
+    def context(self) -> moderngl.Context:
+        """This context, made current on the calling thread, as a moderngl context."""
+        self.__enter__()
+        return moderngl.create_context(require=330, context=self)
+
+    # ---- what moderngl asks of a context it did not make ------------------------------------
+
+    def load_opengl_function(self, name: str) -> int:
+        return self._egl.eglGetProcAddress(name.encode()) or 0
+
+    def __enter__(self) -> None:
+        if not self._egl.eglMakeCurrent(self._display, None, None, self._handle):
+            raise WindowError(f"eglMakeCurrent failed (0x{self._egl.eglGetError():x})")
+
+    def __exit__(self, *exc_info) -> None:
+        self._egl.eglMakeCurrent(self._display, None, None, None)
+
+    def release(self) -> None:
+        """Destroy the context (EGL waits until no thread has it current); the calling thread
+        lets go of it first where it is current there."""
+        if self._handle is None:
+            return
+        if self._egl.eglGetCurrentContext() == self._handle:
+            self.__exit__()
+        self._egl.eglDestroyContext(self._display, self._handle)
+        self._handle = None
+
+
+def _attributes(pairs: tuple[tuple[int, int], ...]):
+    flat = [value for pair in pairs for value in pair]
+    return (ctypes.c_int32 * (len(flat) + 1))(*flat, _EGL_NONE)
+
+
+def _egl_library():
+    egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+    pointer, integer, flag = ctypes.c_void_p, ctypes.c_int32, ctypes.c_uint
+    attributes, out = ctypes.POINTER(integer), ctypes.POINTER
+    signatures = {
+        "eglGetCurrentDisplay": (pointer, []),
+        "eglGetCurrentContext": (pointer, []),
+        "eglGetError": (integer, []),
+        "eglBindAPI": (flag, [ctypes.c_uint]),
+        "eglChooseConfig": (flag, [pointer, attributes, out(pointer), integer, out(integer)]),
+        "eglCreateContext": (pointer, [pointer, pointer, pointer, attributes]),
+        "eglMakeCurrent": (flag, [pointer, pointer, pointer, pointer]),
+        "eglDestroyContext": (flag, [pointer, pointer]),
+        "eglGetProcAddress": (pointer, [ctypes.c_char_p]),
+    }
+    for name, (restype, argtypes) in signatures.items():
+        function = getattr(egl, name)
+        function.restype = restype
+        function.argtypes = argtypes
+    return egl

@@ -48,7 +48,7 @@ class ReadyMaterial:
 
 class GrainWorker:
     """Makes materials on ``window``'s context (a hidden GLFW window sharing objects with the
-    drawing context) in a daemon thread.
+    drawing context; with no ``glfw``, a ``glwindow.SharedEGLContext``) in a daemon thread.
 
     It owns exactly two materials, made at start: the one on screen and the one being brought
     up to date; nothing is made or released per edit. ``request(preset, seq, shared)`` asks for
@@ -150,8 +150,11 @@ class GrainWorker:
 
     def _run(self) -> None:
         try:
-            self._glfw.make_context_current(self._window)
-            ctx = moderngl.create_context(require=330)
+            if self._glfw is None:
+                ctx = self._window.context()
+            else:
+                self._glfw.make_context_current(self._window)
+                ctx = moderngl.create_context(require=330)
         except BaseException as exc:  # reported to the constructor
             self._start_error = exc
             self._started.set()
@@ -207,4 +210,5 @@ class GrainWorker:
             for material in materials:
                 material.release()
             ctx.release()
-            self._glfw.make_context_current(None)
+            if self._glfw is not None:
+                self._glfw.make_context_current(None)
