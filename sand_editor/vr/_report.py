@@ -16,6 +16,7 @@ class FrameStats:
         self.submit_ms: list[float] = []
         self.wait_ms: list[float] = []
         self.gaps_ms: list[float] = []
+        self.display_periods: list[float] = []  # display periods from one frame to the next
         self.regenerating_gaps_ms: list[float] = []
         self.last_submit: float | None = None
         self.frames_submitted = 0
@@ -85,6 +86,7 @@ def loop_report(loop) -> dict:
         "wait_ms": summary(stats.wait_ms),
         "submit_ms": summary(stats.submit_ms),
         "frame_gap_ms": summary(stats.gaps_ms),
+        "display_periods_per_frame": summary(stats.display_periods),
         "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
         "max_frame_gap_at_frame": stats.max_gap_frame,
         "max_frame_gap_while_regenerating_ms": round(

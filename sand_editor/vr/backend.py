@@ -26,6 +26,7 @@ class Frame:
     eyes: list[EyeView]
     input: InputState = field(default_factory=InputState)
     input_ms: float = 0.0  # reading the controls: the viewer's own work, part of the overhead
+    display_period_s: float = 1 / 90  # the display's refresh period, as the backend predicts
 
 
 class Backend(Protocol):

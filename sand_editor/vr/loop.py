@@ -199,7 +199,9 @@ class FrameLoop:
     def _frame(self, frame: Frame) -> list[float] | None:
         dt = 0.0
         if self.previous_time is not None:
-            dt = min(max(frame.display_time_s - self.previous_time, 0.0), MAX_FRAME_STEP_S)
+            step = frame.display_time_s - self.previous_time
+            dt = min(max(step, 0.0), MAX_FRAME_STEP_S)
+            self.stats.display_periods.append(step / frame.display_period_s)
         self.previous_time = frame.display_time_s
         self._take_new_material()
         self.stage.track(frame)

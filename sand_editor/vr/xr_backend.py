@@ -316,7 +316,9 @@ class XrBackend:
         start = time.perf_counter()
         controls = self._controllers.read(display_time) if self._focused else InputState()
         input_ms = (time.perf_counter() - start) * 1e3
-        return Frame(display_time * 1e-9, bool(frame_state.should_render), eyes, controls, input_ms)
+        period = frame_state.predicted_display_period * 1e-9
+        return Frame(display_time * 1e-9, bool(frame_state.should_render), eyes, controls,
+                     input_ms, period if period > 0 else 1 / 90)  # fmt: skip
 
     @contextmanager
     def eye_target(self, index: int):

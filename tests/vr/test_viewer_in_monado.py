@@ -4,6 +4,7 @@ controllers (tools/monado/run), driven over the stdio link as the editor drives 
 from __future__ import annotations
 
 import json
+import math
 import queue
 import subprocess
 import sys
@@ -84,6 +85,15 @@ def test_300_frames_with_controllers_and_an_edit_regenerating(monado_harness, re
         proc.stdin.flush()
         applied = _expect(lines, seen, lambda m: m["type"] in ("applied", "error"))
         assert applied["type"] == "applied" and applied["seq"] == 7, applied
+        # A teleport, a snap turn and the bench brought along, then a panel press: the jumps
+        # the controllers make (the simulated ones cannot move), asked for over the link.
+        proc.stdin.write(encode("move", to=[30.0, -40.0], turn_degrees=-30.0, bring_bench=True))
+        proc.stdin.write(encode("press", button="later"))
+        proc.stdin.flush()
+        later = _expect(
+            lines, seen, lambda m: m["type"] in ("time", "error") and m.get("hours") != 10.0
+        )
+        assert later["type"] == "time" and later["hours"] == pytest.approx(11.0), later
         bye = _expect(lines, seen, lambda m: m["type"] == "bye")
         assert bye["status"] == 0
         _, stderr = proc.communicate(timeout=120)
@@ -118,6 +128,16 @@ def test_300_frames_with_controllers_and_an_edit_regenerating(monado_harness, re
     assert report["eye_ms"]["count"] == 2 * report["frames_rendered"]
     assert report["max_frame_gap_while_regenerating_ms"] > 0
     assert report["final"]["preset"] == "edited in the editor (editing)"
+    assert report["final"]["hours"] == pytest.approx(11.0)
+    moves = report["locomotion"]
+    assert (moves["teleports"], moves["snap_turns"], moves["bench_moves"]) == (1, 1, 1)
+    assert moves["yaw_deg"] == pytest.approx(-30.0)
+    x, _, z = moves["head_in_world"]
+    assert math.hypot(x - 30.0, z + 40.0) < 0.5  # the head is where it was sent
+    # Depth for the compositor: a depth swapchain per eye, chained to each projection view.
+    assert report["depth_submitted"] is True and report["depth_format"].startswith("GL_DEPTH")
+    periods = report["display_periods_per_frame"]
+    assert periods["count"] >= FRAMES - 2 and periods["median"] >= 1.0
 
 
 def test_simple_controllers_bind_the_khr_profile(monado_harness, report_dir):
