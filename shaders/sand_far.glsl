@@ -37,7 +37,7 @@ vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v) {
 const float RIPPLE_BEND = 0.6;
 
 uniform int u_sharp_ripples;  // 1: ripples filtered along the footprint (below); 0: isotropically
-uniform float u_ripple_share; // 1 on the dunes; 0 on objects (a tray, a sphere): no wind ripples
+uniform float u_no_ripples;   // 0 on the dunes; 1 on objects (a tray, a sphere): no wind ripples
 const int RIPPLE_TAPS = 4;
 
 // A ripple map's mean slope over the pixel's footprint (uv derivatives dx, dy). A distant
@@ -81,7 +81,7 @@ vec3 rippled_normal(SurfacePoint s) {
     vec2 dx = transpose(frame) * dFdx(s.uv), dy = transpose(frame) * dFdy(s.uv);
     vec2 grad_r = mix(ripple_slopes(u_ripple_shallow, ripple_uv, dx, dy),
                       ripple_slopes(u_ripple_steep, ripple_uv, dx, dy), steep);
-    vec2 grad = frame * grad_r * u_ripple_share;
+    vec2 grad = frame * grad_r * (1.0 - u_no_ripples);
     grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
     vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));
     return to_world(n_t, s);

@@ -54,7 +54,7 @@ class _Mesh:
         # A mesh of rings (the terrain's): their radii about ring_center, so that a shadow map
         # draws only the rings that can cast into it.
         self.rings = mesh.get("rings")
-        self.ripples = float(bool(mesh.get("ripples", False)))  # wind ripples: the dunes only
+        self.no_ripples = 0.0 if mesh.get("ripples") else 1.0  # wind ripples: the dunes only
         self.ring_center = mesh.get("ring_center")
         self.buffer = ctx.buffer(vertices.astype(np.float32).tobytes())
         self.index = ctx.buffer(mesh["index"].astype(np.uint32).tobytes())
@@ -325,7 +325,7 @@ class SandRenderer:
         for prog, vao in zip(self._surfaces, mesh.vaos, strict=True):
             set_matrix(prog, "u_view_projection", view_projection)
             set_uniform(prog, "u_origin", _vec(mesh.origin))
-            set_uniform(prog, "u_ripple_share", mesh.ripples)
+            set_uniform(prog, "u_no_ripples", mesh.no_ripples)
             vao.render(moderngl.TRIANGLES)
 
     # ---- meshes -----------------------------------------------------------------------------
