@@ -39,7 +39,7 @@ def report_dir():
 
 def _viewer(harness, controllers, *args):
     return subprocess.Popen(
-        [str(harness), "--controllers", controllers, "--timeout", "500",
+        [str(harness), "--fail-on-validation", "--controllers", controllers, "--timeout", "500",
          "python", "-m", "sand_editor", "vr", *args],
         cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         text=True,
