@@ -64,12 +64,13 @@ def standalone_current() -> Iterator[moderngl.Context]:
 
 def release_standalone_context() -> None:
     """Make no EGL context current on this thread (a no-op where none is)."""
-    egl = _egl_library()
+    egl = egl_library()
     if egl is not None and egl.eglGetCurrentContext():
         egl.eglMakeCurrent(egl.eglGetCurrentDisplay(), None, None, None)
 
 
-def _egl_library():
+def egl_library():
+    """libEGL with the signatures this project calls (None where it cannot be loaded)."""
     if not hasattr(_local, "egl"):
         name = ctypes.util.find_library("EGL") or "libEGL.so.1"
         try:
@@ -77,16 +78,32 @@ def _egl_library():
         except OSError:
             egl = None
         else:
-            egl.eglGetCurrentContext.restype = ctypes.c_void_p
-            egl.eglGetCurrentDisplay.restype = ctypes.c_void_p
-            egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
-            egl.eglMakeCurrent.restype = ctypes.c_uint
+            pointer, integer, flag = ctypes.c_void_p, ctypes.c_int32, ctypes.c_uint
+            attributes, out = ctypes.POINTER(integer), ctypes.POINTER
+            signatures = {
+                "eglGetCurrentDisplay": (pointer, []),
+                "eglGetCurrentContext": (pointer, []),
+                "eglGetError": (integer, []),
+                "eglBindAPI": (flag, [ctypes.c_uint]),
+                "eglChooseConfig": (
+                    flag,
+                    [pointer, attributes, out(pointer), integer, out(integer)],
+                ),
+                "eglCreateContext": (pointer, [pointer, pointer, pointer, attributes]),
+                "eglMakeCurrent": (flag, [pointer, pointer, pointer, pointer]),
+                "eglDestroyContext": (flag, [pointer, pointer]),
+                "eglGetProcAddress": (pointer, [ctypes.c_char_p]),
+            }
+            for function_name, (restype, argtypes) in signatures.items():
+                function = getattr(egl, function_name)
+                function.restype = restype
+                function.argtypes = argtypes
         _local.egl = egl
     return _local.egl
 
 
 def _current_egl_context() -> int | None:
-    egl = _egl_library()
+    egl = egl_library()
     return egl.eglGetCurrentContext() if egl is not None else None
 
 

@@ -6,10 +6,11 @@ window (``HeadlessContexts``), where there is no display."""
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import os
 
 import moderngl
+
+from sand_editor.gl import egl_library
 
 REQUIRED_GL = (3, 3)
 
@@ -132,7 +133,9 @@ class SharedEGLContext:
     whose ``release`` destroys it. It has no surface: it draws into framebuffers only."""
 
     def __init__(self) -> None:
-        egl = self._egl = _egl_library()
+        egl = self._egl = egl_library()
+        if egl is None:
+            raise WindowError("libEGL could not be loaded: no headless OpenGL")
         self._display = egl.eglGetCurrentDisplay()
         share = egl.eglGetCurrentContext()
         if not self._display or not share:
@@ -180,25 +183,3 @@ class SharedEGLContext:
 def _attributes(pairs: tuple[tuple[int, int], ...]):
     flat = [value for pair in pairs for value in pair]
     return (ctypes.c_int32 * (len(flat) + 1))(*flat, _EGL_NONE)
-
-
-def _egl_library():
-    egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
-    pointer, integer, flag = ctypes.c_void_p, ctypes.c_int32, ctypes.c_uint
-    attributes, out = ctypes.POINTER(integer), ctypes.POINTER
-    signatures = {
-        "eglGetCurrentDisplay": (pointer, []),
-        "eglGetCurrentContext": (pointer, []),
-        "eglGetError": (integer, []),
-        "eglBindAPI": (flag, [ctypes.c_uint]),
-        "eglChooseConfig": (flag, [pointer, attributes, out(pointer), integer, out(integer)]),
-        "eglCreateContext": (pointer, [pointer, pointer, pointer, attributes]),
-        "eglMakeCurrent": (flag, [pointer, pointer, pointer, pointer]),
-        "eglDestroyContext": (flag, [pointer, pointer]),
-        "eglGetProcAddress": (pointer, [ctypes.c_char_p]),
-    }
-    for name, (restype, argtypes) in signatures.items():
-        function = getattr(egl, name)
-        function.restype = restype
-        function.argtypes = argtypes
-    return egl

@@ -128,22 +128,11 @@ def check_time_fields(message: dict) -> dict:
     ``LinkError`` naming a field that is out of range or of the wrong type."""
     fields = {}
     if "hours" in message:
-        hours = message["hours"]
-        if not _is_number(hours) or not 0.0 <= hours < 24.0:
-            raise LinkError(f"time.hours must be a number in [0, 24), got {hours!r}")
-        fields["hours"] = float(hours)
+        fields["hours"] = _number(message, "time", "hours", 0.0, 24.0, upper_open=True)
     if "day_speed" in message:
-        speed = message["day_speed"]
-        if not _is_number(speed) or not 0.0 <= speed <= MAX_DAY_SPEED:
-            raise LinkError(
-                f"time.day_speed must be a number in [0, {MAX_DAY_SPEED:g}], got {speed!r}"
-            )
-        fields["day_speed"] = float(speed)
+        fields["day_speed"] = _number(message, "time", "day_speed", 0.0, MAX_DAY_SPEED)
     if "playing" in message:
-        playing = message["playing"]
-        if not isinstance(playing, bool):
-            raise LinkError(f"time.playing must be true or false, got {playing!r}")
-        fields["playing"] = playing
+        fields["playing"] = _flag(message, "time", "playing")
     return fields
 
 
@@ -163,18 +152,31 @@ def check_move(message: dict) -> dict:
             raise LinkError(f"move.to must be [x, z], numbers within ±{MAX_MOVE_M:g}, got {shown}")
         fields["to"] = (float(to[0]), float(to[1]))
     if "turn_degrees" in message:
-        turn = message["turn_degrees"]
-        if not _is_number(turn) or not -180.0 <= turn <= 180.0:
-            raise LinkError(f"move.turn_degrees must be a number in [-180, 180], got {turn!r}")
-        fields["turn_degrees"] = float(turn)
+        fields["turn_degrees"] = _number(message, "move", "turn_degrees", -180.0, 180.0)
     if "bring_bench" in message:
-        bring = message["bring_bench"]
-        if not isinstance(bring, bool):
-            raise LinkError(f"move.bring_bench must be true or false, got {bring!r}")
-        fields["bring_bench"] = bring
+        fields["bring_bench"] = _flag(message, "move", "bring_bench")
     if not fields:
         raise LinkError("move needs at least one of: to, turn_degrees, bring_bench")
     return fields
+
+
+def _number(message: dict, kind: str, name: str, low: float, high: float,
+            upper_open: bool = False) -> float:  # fmt: skip
+    """Field ``name`` of a ``kind`` message as a float in [low, high] (or [low, high))."""
+    value = message[name]
+    inside = _is_number(value) and low <= value and (value < high if upper_open else value <= high)
+    if not inside:
+        bounds = f"[{low:g}, {high:g}{')' if upper_open else ']'}"
+        raise LinkError(f"{kind}.{name} must be a number in {bounds}, got {value!r}")
+    return float(value)
+
+
+def _flag(message: dict, kind: str, name: str) -> bool:
+    """Field ``name`` of a ``kind`` message, which must be true or false."""
+    value = message[name]
+    if not isinstance(value, bool):
+        raise LinkError(f"{kind}.{name} must be true or false, got {value!r}")
+    return value
 
 
 def _is_number(value) -> bool:

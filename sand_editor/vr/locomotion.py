@@ -151,10 +151,8 @@ class Locomotion:
         right = state.right
         x, y = (_finite(v) for v in right.stick)
         if self._turn_armed and abs(x) >= STICK_ENGAGE and self._aiming_hand is None:
-            angle = math.radians(SNAP_TURN_DEG) * (-1.0 if x > 0 else 1.0)
-            self.origin = self.origin.turned(head_tracking, angle)
+            self.turn(head_tracking, math.radians(SNAP_TURN_DEG) * (-1.0 if x > 0 else 1.0), now_s)
             self._turn_armed = False
-            self.turns += 1
             jumps.append("turn")
         elif abs(x) <= STICK_RELEASE:
             self._turn_armed = True
@@ -162,8 +160,7 @@ class Locomotion:
             if y >= STICK_ENGAGE:
                 self._aiming_hand, self._aiming_by = "right", "stick"
             else:
-                for hand, now in state.hands():
-                    before = dict(previous.hands())[hand]
+                for (hand, now), (_, before) in zip(state.hands(), previous.hands(), strict=True):
                     pulled = now.select >= TRIGGER_PRESS > before.select
                     if pulled and not panel_hovered(hand):
                         self._aiming_hand, self._aiming_by = hand, "trigger"
@@ -176,22 +173,19 @@ class Locomotion:
                 released = hand_input.select <= TRIGGER_RELEASE
             if released:
                 if self.aim is not None and self.aim.valid:
-                    self.origin = self.origin.teleported(
-                        head_tracking, self.aim.target, self.floor_lift
-                    )
-                    self.teleports += 1
+                    self._teleport(head_tracking, self.aim.target, now_s)
                     jumps.append("teleport")
                 self.aim = None
                 self._aiming_hand = self._aiming_by = None
             else:
                 self.aim = self._aim(self._aiming_hand, self.origin.pose(hand_input.aim))
-        if jumps:
-            self.last_jump_s = now_s
         return jumps
 
     def teleport_to(self, head_tracking, x: float, z: float, now_s: float | None) -> None:
-        ground = float(self.terrain.height(x, z))
-        self.origin = self.origin.teleported(head_tracking, (x, ground, z), self.floor_lift)
+        self._teleport(head_tracking, (x, float(self.terrain.height(x, z)), z), now_s)
+
+    def _teleport(self, head_tracking, target, now_s: float | None) -> None:
+        self.origin = self.origin.teleported(head_tracking, target, self.floor_lift)
         self.teleports += 1
         self.last_jump_s = now_s
 

@@ -13,6 +13,7 @@ from dataclasses import replace
 import numpy as np
 
 from sand_editor.vr.backend import EyeView, Frame
+from sand_editor.vr.bench_meshes import controller_props
 from sand_editor.vr.locomotion import Locomotion, TrackingOrigin
 from sand_editor.vr.workbench import Workbench
 from sand_editor.vr.xrmath import Pose
@@ -28,9 +29,8 @@ class Stage:
         self.renderer = renderer
         self.floor_level = floor_level
         self.workbench: Workbench | None = None
-        self.bench_moves = 0
         self._place_workbench((0.0, 0.0), 0.0)
-        self.bench_moves = 0
+        self.bench_moves = 0  # placing the first bench was no move
         self.locomotion = Locomotion(renderer.terrain, TrackingOrigin(), comfort, self.blocks)
         self.placed = False  # the tracking space is put on the dune at the first frame
         self.head: np.ndarray | None = None  # between the eyes, in the tracking space
@@ -86,8 +86,12 @@ class Stage:
     def props(self, hands):
         """The renderer's ``extra`` for one frame: the desk and the controllers' bodies."""
 
+        # The controllers' bodies are built once per frame, for both eyes.
+        bodies = [controller_props(pose) for pose in hands if pose is not None]
+        moving = np.vstack(bodies) if bodies else None
+
         def draw(camera, sky):
-            self.workbench.draw_props(self.ctx, camera, sky, hands)
+            self.workbench.draw_props(self.ctx, camera, sky, moving)
 
         return draw
 
@@ -102,7 +106,7 @@ class Stage:
     def move(self, to=None, turn_degrees: float | None = None, bring_bench: bool = False) -> None:
         """Teleport the head above ``to`` (x, z), turn it by ``turn_degrees`` and bring the
         workbench before it: what the controllers do, asked for by the link."""
-        head = self.head if self.head is not None else np.zeros(3)
+        head = self._head()
         if to is not None:
             self.locomotion.teleport_to(head, to[0], to[1], self.now_s)
         if turn_degrees:
@@ -113,14 +117,17 @@ class Stage:
     def bring_bench(self) -> None:
         """The workbench in front of the head, facing the way it looks."""
         origin = self.locomotion.origin
-        head = self.head if self.head is not None else np.zeros(3)
-        stand = origin.point(head)
+        stand = origin.point(self._head())
         yaw = origin.yaw
         if self.eyes:
             forward = origin.pose(self.eyes[0].pose).forward
             if np.hypot(forward[0], forward[2]) > 1e-3:
                 yaw = float(np.arctan2(-forward[0], -forward[2]))
         self._place_workbench((stand[0], stand[2]), yaw)
+
+    def _head(self) -> np.ndarray:
+        """The head in the tracking space (its origin before the first frame with eyes)."""
+        return self.head if self.head is not None else np.zeros(3)
 
     def blocks(self, point) -> bool:
         """Whether a teleport to ``point`` would land in the desk."""

@@ -19,7 +19,7 @@ from sand_editor.render.camera import Camera
 from sand_editor.view import ViewState, format_time
 from sand_editor.vr.actions import Command
 from sand_editor.vr.bench_draw import BenchGraphics
-from sand_editor.vr.bench_meshes import DESK_SIZE_M, DeskLayout, controller_props
+from sand_editor.vr.bench_meshes import DESK_SIZE_M, DeskLayout
 
 PANEL_SIZE_M = (0.48, 0.27)
 PANEL_TILT_DEG = 25.0  # leaning back, towards the sky
@@ -185,12 +185,11 @@ class Workbench:
             draw.text((left, box[1] + 20 * k), label, font=label_font, fill=(255, 255, 255))
         return image
 
-    def draw_props(self, ctx: moderngl.Context, camera: Camera, sky, hands: list) -> None:
-        """The desk, the tray's walls and a body for each tracked controller (``hands``: aim
-        poses in the world, None while untracked), into the renderer's HDR scene."""
-        graphics = self._gl(ctx)
-        moving = [controller_props(pose) for pose in hands if pose is not None]
-        graphics.draw_props(camera, sky, np.vstack(moving) if moving else None)
+    def draw_props(self, ctx: moderngl.Context, camera: Camera, sky, moving=None) -> None:
+        """The desk, the tray's walls and the ``moving`` props (the controllers' bodies,
+        ``bench_meshes.controller_props`` rows, world positions) into the renderer's HDR
+        scene."""
+        self._gl(ctx).draw_props(camera, sky, moving)
 
     def draw(self, ctx: moderngl.Context, camera: Camera, viewport, state: ViewState,
              preset_name: str, rays: list, aim=None) -> None:  # fmt: skip

@@ -36,8 +36,9 @@ def _text(value) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
-def create_instance() -> xr.Instance:
-    """An instance with OpenGL; ``NoRuntimeError`` when no runtime is installed or active."""
+def create_instance(enabled: list[str] | None = None) -> xr.Instance:
+    """An instance with OpenGL (and composition layer depth where offered); ``NoRuntimeError``
+    when no runtime is installed or active. ``enabled``, given, gets the extensions' names."""
     try:
         available = xr.enumerate_instance_extension_properties()
         if xr.KHR_OPENGL_ENABLE_EXTENSION_NAME not in available:
@@ -47,6 +48,8 @@ def create_instance() -> xr.Instance:
         extensions = [xr.KHR_OPENGL_ENABLE_EXTENSION_NAME]
         if xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME in available:
             extensions.append(xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME)
+        if enabled is not None:
+            enabled[:] = extensions
         return xr.create_instance(
             xr.InstanceCreateInfo(
                 application_info=xr.ApplicationInfo(
@@ -114,10 +117,9 @@ class XrBackend:
         failure while starting) releases them in reverse order."""
         self._teardown = ExitStack()
         self.exiting = False
-        self.instance = create_instance()
-        self.depth_offered = xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME in (
-            xr.enumerate_instance_extension_properties()
-        )
+        enabled: list[str] = []
+        self.instance = create_instance(enabled)
+        self.depth_offered = xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME in enabled
         self._teardown.callback(xr.destroy_instance, self.instance)
         try:
             self._start(windows_factory, render_scale)
