@@ -22,15 +22,14 @@ with the sparkle at its expectation, the diffuse part the rest of mode ``close``
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
 
+from sand_editor.export.maps import clear_weights
 from sand_editor.generator import generate
-from sand_editor.generator.noise import NoiseConstants
 from sand_editor.preset import Preset
-from sand_editor.render.material import sphere_albedo_terms
+from sand_editor.render.far_brdf import sphere_brdf
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 SUN_DIRECTION = np.array([0.0, 0.6, -0.8])  # towards the sun: the probe's
@@ -45,16 +44,6 @@ def neutral(preset: Preset) -> Preset:
     return preset.replace(**{"shading.sss": 0.0, "shading.transmission": 0.0})
 
 
-def clear_weights(preset: Preset, textures) -> np.ndarray:
-    """Each texel's share of mirroring facets: the light its layer gets on a clear grain."""
-    constants = NoiseConstants.from_generation(preset.generation)
-    glint_value = (textures.grain_id >> np.uint32(24)).astype(np.float64) / 256.0
-    owned = textures.layer >= 0
-    light = constants.layer_light[np.clip(textures.layer, 0, None).astype(np.int64)]
-    clear = owned & (glint_value < preset.shading.clear_grains)
-    return np.where(clear, light, 0.0).astype(np.float32)
-
-
 def _mitsuba():
     import drjit as dr
     import mitsuba as mi
@@ -66,19 +55,9 @@ def _mitsuba():
 
 
 def _deon(kd: float, ui: float, uo: float, cos_io: float) -> float:
-    """d'Eon (2021), fitted BRDF of a half space of Lambertian spheres, one channel (the
-    material's sand_far.glsl, written again here on plain floats)."""
-    c, floor = sphere_albedo_terms(kd)
-    u = min(max(-cos_io, -1.0), 1.0)
-    phase = 2.0 * (math.sqrt(max(1.0 - u * u, 0.0)) - u * math.acos(u)) / (3.0 * math.pi**2)
-    single = c * phase / max(ui + uo, 1e-4)
-    s = math.sqrt(max((1.0 - ui * ui) * (1.0 - uo * uo), 0.0))
-    cos_phi = min(max((cos_io - ui * uo) / s, -1.0), 1.0) if s > 1e-5 else 1.0
-    s_safe = max(s, 1e-5)
-    multiple = (math.acos(cos_phi) + math.sqrt(ui * uo)) * (c - 0.249978) / (
-        4.50996 * (math.acos(min(s_safe, 1.0)) / s_safe + 0.113706)
-    ) + floor
-    return max(0.995917 * single + 0.0684744 * multiple, 0.0)
+    """d'Eon (2021), fitted BRDF of a half space of Lambertian spheres, one channel: the
+    material's (render.far_brdf, the numpy form of sand_far.glsl) on plain floats."""
+    return float(sphere_brdf(kd, ui, uo, cos_io))
 
 
 _REGISTERED = False

@@ -33,6 +33,7 @@ from sand_editor.gl import (
     set_uniform,
 )
 from sand_editor.preset import FIELDS, Preset
+from sand_editor.render.far_brdf import sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
 from sand_editor.render.shadows import CASCADES
 
@@ -57,13 +58,6 @@ SHADER_DEFINES = {
     "MAX_LAYERS": MAX_LAYERS,
     "SHADOW_CASCADES": CASCADES,
 }
-
-
-def sphere_albedo_terms(kd):
-    """What d'Eon's (2021) Lambertian-sphere BRDF takes of a diffuse albedo alone: the
-    particles' single-scattering albedo c and the multiple-scattering floor."""
-    c = (1.0 - (1.0 - kd) ** 2.73556) / (1.0 - 0.184096 * (1.0 - kd) ** 2.48423)
-    return c, (1.94208 * kd) ** 1.85432
 
 
 def sphere_constants(average_albedo) -> dict:

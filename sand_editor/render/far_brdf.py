@@ -1,0 +1,152 @@
+"""The far-field diffuse BRDF of ``shaders/sand_far.glsl`` and ``sand_surface.glsl`` in numpy:
+d'Eon's (2021) half space of Lambertian spheres, the subsurface blend and the light through
+grain edges, on a flat macro surface.
+
+What a program with only a Lambertian base colour (glTF, the engines) needs is the albedo that
+reflects the same light: :func:`lambert_equivalent_albedo`. A half space of grains reflects less
+than a Lambertian surface of the grains' albedo (light enters between them and is absorbed on
+the way), and more towards the sun than away from it; the first carries over as a darker base
+colour, the second does not.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sand_editor.preset import Preset
+
+# Quadrature of the double integral over the light's and the eye's hemispheres.
+_LIGHT_STEPS = 8
+_EYE_STEPS = 8
+# shaders/sand_surface.glsl and sand_far.glsl: a grain side seen edge-on fades out over this
+# band of n·v, and a shading normal is bent towards the eye to at least this n·v.
+FACING_BAND = 0.15
+MIN_FACING = 0.05
+# filtered_diffuse_light's five normals: the centre's weight, and how far the others stand out.
+DIFFUSE_CENTRE = 0.2
+DIFFUSE_RING = math.sqrt(2.0 / (1.0 - DIFFUSE_CENTRE))
+
+
+def sphere_albedo_terms(kd):
+    """What d'Eon's (2021) Lambertian-sphere BRDF takes of a diffuse albedo alone: the
+    particles' single-scattering albedo c and the multiple-scattering floor."""
+    c = (1.0 - (1.0 - kd) ** 2.73556) / (1.0 - 0.184096 * (1.0 - kd) ** 2.48423)
+    return c, (1.94208 * kd) ** 1.85432
+
+
+def sphere_brdf(kd, ui, uo, cos_io):
+    """d'Eon's fitted BRDF at albedo ``kd`` for the cosines of light (``ui``) and eye (``uo``)
+    to the normal and between them (``cos_io``); broadcasts, 0 below either horizon."""
+    kd, ui, uo, cos_io = (np.asarray(x, dtype=np.float64) for x in (kd, ui, uo, cos_io))
+    c, floor = sphere_albedo_terms(kd)
+    u = np.clip(-cos_io, -1.0, 1.0)
+    phase = 2.0 * (np.sqrt(np.maximum(1.0 - u * u, 0.0)) - u * np.arccos(u)) / (3.0 * np.pi**2)
+    single = c * phase / np.maximum(ui + uo, 1e-4)
+    s = np.sqrt(np.maximum((1.0 - ui * ui) * (1.0 - uo * uo), 0.0))
+    s_safe = np.maximum(s, 1e-5)
+    cos_phi = np.where(s > 1e-5, np.clip((cos_io - ui * uo) / s_safe, -1.0, 1.0), 1.0)
+    spread = (np.arccos(cos_phi) + np.sqrt(np.maximum(ui * uo, 0.0))) / (
+        4.50996 * (np.arccos(np.minimum(s_safe, 1.0)) / s_safe + 0.113706)
+    )
+    multiple = spread * (c - 0.249978) + floor
+    brdf = np.maximum(0.995917 * single + 0.0684744 * multiple, 0.0)
+    return np.where((ui > 0.0) & (uo > 0.0), brdf, 0.0)
+
+
+def _smoothstep(edge0: float, edge1: float, x):
+    t = np.clip((x - edge0) / (edge1 - edge0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def moment_normals(moments, eye) -> tuple[np.ndarray, np.ndarray]:
+    """The shading normals ``filtered_diffuse_light`` stands the grains' normals for: the mean
+    normal and four more holding the normal moments' variance along the eye's azimuth and across
+    it, with their weights. ``moments`` is (mean nx, mean ny, mean nx², mean ny²); ``eye``
+    (..., 3) unit directions, +z up. Returns normals (..., 5, 3) and weights (5,)."""
+    mx, my, sx, sy = (float(v) for v in moments)
+    mean = np.array([mx, my])
+    variance = np.maximum(np.array([sx, sy]) - mean * mean, 0.0)
+    eye = np.asarray(eye, dtype=np.float64)
+    towards = eye[..., :2]
+    reach = np.linalg.norm(towards, axis=-1, keepdims=True)
+    along = np.where(reach > 1e-5, towards / np.maximum(reach, 1e-12), np.array([1.0, 0.0]))
+    across = np.stack([-along[..., 1], along[..., 0]], axis=-1)
+    spread_along = along * (DIFFUSE_RING * np.sqrt(np.sum(along * along * variance, -1)))[..., None]
+    spread_across = (
+        across * (DIFFUSE_RING * np.sqrt(np.sum(across * across * variance, -1)))[..., None]
+    )
+    m = np.broadcast_to(mean, along.shape)
+    points = np.stack(
+        [m, m + spread_along, m - spread_along, m + spread_across, m - spread_across], axis=-2
+    )
+    length2 = np.sum(points * points, axis=-1, keepdims=True)
+    points = np.where(length2 > 0.998, points * np.sqrt(0.998 / np.maximum(length2, 1e-12)), points)
+    z = np.sqrt(np.maximum(1.0 - np.sum(points * points, axis=-1, keepdims=True), 0.0))
+    weights = np.array([DIFFUSE_CENTRE] + [0.25 * (1.0 - DIFFUSE_CENTRE)] * 4)
+    return np.concatenate([points, z], axis=-1), weights
+
+
+def far_radiance_per_irradiance(preset: Preset, kd, moments, light, eye) -> np.ndarray:
+    """Radiance per unit sun irradiance of the far field (``filtered_diffuse_light`` with one
+    sun and no sky) on a flat surface, +z up, at the mean albedo ``kd`` (3,) and the tile's
+    normal ``moments`` (see :func:`moment_normals`). ``light`` (3,) and ``eye`` (..., 3) are unit
+    directions away from the surface; returns (..., 3)."""
+    shading = preset.shading
+    kd = np.asarray(kd, dtype=np.float64)
+    light = np.asarray(light, dtype=np.float64)
+    eye = np.asarray(eye, dtype=np.float64)
+    n, weights = moment_normals(moments, eye)
+    e = eye[..., None, :]
+    facing = np.sum(n * e, axis=-1)
+    seen = _smoothstep(-FACING_BAND, FACING_BAND, facing)
+    bent = n + np.maximum(MIN_FACING - facing, 0.0)[..., None] * e
+    bent /= np.linalg.norm(bent, axis=-1, keepdims=True)
+    ui = bent @ light
+    uo = np.sum(bent * e, axis=-1)
+    cos_io = eye @ light
+    fs = np.clip(shading.scattering * shading.sss, 0.0, 1.0)
+    fe = np.exp(-shading.absorption * shading.sss)
+    lit = float(light[2] > 0.0)
+    per_albedo = sphere_brdf(kd, ui[..., None], uo[..., None], cos_io[..., None, None]) / (
+        np.maximum(kd, 1e-4)
+    )
+    direct = (1.0 - fs) * per_albedo * np.maximum(ui, 0.0)[..., None] + fs / np.pi
+    diffuse = np.sum((weights * seen)[..., None] * direct, axis=-2) * lit
+    exponent = 16.0 + (1.0 - 16.0) * np.clip(shading.transmission_roughness, 0.0, 1.0)
+    forward = np.maximum(-cos_io, 0.0) ** exponent
+    through = shading.transmission * forward[..., None] / np.pi * lit
+    return kd * (fe * diffuse + through)
+
+
+def hemisphere(steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """Directions about +z and their solid angles: a midpoint rule in cos θ and φ."""
+    mu = (np.arange(steps) + 0.5) / steps
+    phi = (np.arange(2 * steps) + 0.5) / (2 * steps) * 2.0 * np.pi
+    m, p = np.meshgrid(mu, phi, indexing="ij")
+    s = np.sqrt(1.0 - m * m)
+    directions = np.stack([s * np.cos(p), s * np.sin(p), m], axis=-1).reshape(-1, 3)
+    return directions, np.full(len(directions), (1.0 / steps) * (np.pi / steps))
+
+
+def lambert_equivalent_albedo(preset: Preset, kd, moments) -> np.ndarray:
+    """The albedo of the Lambertian surface that reflects as much of the sun as the far field
+    of the tile's normal ``moments`` (see :func:`moment_normals`): radiance times the eye's
+    cosine over the eye's hemisphere, averaged over the light's hemisphere with its cosine as
+    weight (suns high and low count as they light the ground). One value per channel of
+    ``kd``."""
+    kd = np.asarray(kd, dtype=np.float64)
+    eyes, d_eye = hemisphere(_EYE_STEPS)
+    # The grains' normals are (near enough) isotropic about +z: the light's azimuth need not
+    # vary.
+    mu = (np.arange(_LIGHT_STEPS) + 0.5) / _LIGHT_STEPS
+    lights = np.stack([np.sqrt(1.0 - mu * mu), np.zeros_like(mu), mu], axis=-1)
+    total = np.zeros(3)
+    lambert = 0.0
+    for light, cos_light in zip(lights, mu, strict=True):
+        radiance = far_radiance_per_irradiance(preset, kd, moments, light, eyes)
+        total += cos_light * np.sum(radiance * (eyes[:, 2] * d_eye)[:, None], axis=0)
+        # A Lambertian albedo a gives radiance a/π per unit irradiance and cosine of the light.
+        lambert += cos_light * np.sum(cos_light / np.pi * eyes[:, 2] * d_eye)
+    return total / lambert
