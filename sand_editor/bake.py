@@ -1,4 +1,5 @@
-"""Bake a preset's grain textures to image files an engine (or our renderer) can load."""
+"""Bake a preset's grain textures to image files: our own set (the renderer's textures), or
+an engine's texture set (``sand_editor.export.sets``)."""
 
 from __future__ import annotations
 
@@ -9,13 +10,16 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from sand_editor.export.maps import material_maps
+from sand_editor.export.sets import TARGETS as SET_TARGETS
+from sand_editor.export.sets import MapFormats, texture_set
+from sand_editor.export.steps import Steps, generation_steps
 from sand_editor.files import write_folder
-from sand_editor.generator import SandTextures, generate, generate_progressive
+from sand_editor.generator import SandTextures
 from sand_editor.generator.noise import linear_to_srgb
 from sand_editor.preset import Preset
 
 LOW_RES_SIZE = 64
-_BAKE_BAND_ROWS = 128  # rows per generation step, so a caller can cancel between them
 FILES = {
     "albedo.png": "sRGB 8-bit RGB, the grain colours",
     "albedo_low.png": f"sRGB 8-bit RGB, {LOW_RES_SIZE}² area average of the albedo (far field)",
@@ -73,22 +77,29 @@ def material_record(preset: Preset, textures: SandTextures) -> dict:
     }
 
 
-def bake(preset: Preset, size: int, out_dir: Path, backend: str = "gl") -> dict:
-    """Generate and write the baked files; returns the material record.
+DEFAULT_TARGET = "sand-editor"
+TARGETS = (DEFAULT_TARGET, *SET_TARGETS)
+
+
+def bake(
+    preset: Preset,
+    size: int,
+    out_dir: Path,
+    backend: str = "gl",
+    target: str = DEFAULT_TARGET,
+    formats: MapFormats | None = None,
+) -> dict:
+    """Generate and write the baked files; returns the bake's record.
 
     Everything is encoded in memory and written as one unit (``sand_editor.files.write_folder``):
     temporary names first, then renamed into place under a lock on the folder, ``material.json``
-    last, so two bakes into one folder never mix and a failed one leaves the old files.
+    (or the set's README) last, so two bakes into one folder never mix and a failed one leaves
+    the old files.
     """
-    if backend == "gl":
-        steps = BakeSteps(preset, size, out_dir)
-        for _ in steps:
-            pass
-        return steps.record
-    textures = generate(preset, size, backend=backend)
-    files = _encode_files(preset, textures)
-    write_folder(out_dir, files)
-    return json.loads(files["material.json"])
+    steps = BakeSteps(preset, size, out_dir, target=target, formats=formats, backend=backend)
+    for _ in steps:
+        pass
+    return steps.record
 
 
 def _encode_files(preset: Preset, textures: SandTextures):
@@ -102,43 +113,53 @@ def _encode_files(preset: Preset, textures: SandTextures):
     return files
 
 
-class BakeSteps:
-    """``bake`` in short steps: iterate to run it; each step yields
-    (fraction done, what comes next). Stopping early (``close()``, or dropping it) writes
-    nothing: the files are written, all at once, only in the last step. ``record`` holds the
-    material record once done. Uses the calling thread's headless context (or ``ctx``).
-    """
+def _set_record(preset: Preset, textures: SandTextures, target: str, files) -> dict:
+    return {
+        "target": target,
+        "size": textures.size,
+        "files": list(files),
+        "statistics": textures.statistics(preset.generation.layers),
+    }
 
-    def __init__(self, preset: Preset, size: int, out_dir: Path, ctx=None) -> None:
-        self.record: dict | None = None
-        self._steps = self._run(preset, size, Path(out_dir), ctx)
 
-    def __iter__(self):
-        return self
+class BakeSteps(Steps):
+    """``bake`` in short steps (see :class:`Steps`). Uses the calling thread's headless
+    context (or ``ctx``)."""
 
-    def __next__(self) -> tuple[float, str]:
-        return next(self._steps)
-
-    def close(self) -> None:
-        self._steps.close()
-
-    def _run(self, preset: Preset, size: int, out_dir: Path, ctx):
-        bands = max(1, -(-size // _BAKE_BAND_ROWS))
-        done = 0
-        textures = None
-        progressive = generate_progressive(
-            preset, size, first_size=size, band_rows=_BAKE_BAND_ROWS, ctx=ctx
+    def __init__(
+        self,
+        preset: Preset,
+        size: int,
+        out_dir: Path,
+        ctx=None,
+        target: str = DEFAULT_TARGET,
+        formats: MapFormats | None = None,
+        backend: str = "gl",
+    ) -> None:
+        if target not in TARGETS:
+            raise ValueError(f"unknown target {target!r}; allowed {', '.join(TARGETS)}")
+        if target == DEFAULT_TARGET and formats not in (None, MapFormats()):
+            raise ValueError(
+                "--normal-format and --height-format apply to the engine targets "
+                f"({', '.join(SET_TARGETS)}); the {DEFAULT_TARGET} set keeps its own"
+            )
+        super().__init__(
+            self._run(preset, size, Path(out_dir), ctx, target, formats or MapFormats(), backend)
         )
-        try:
-            for result in progressive:
-                done += 1
-                yield 0.6 * min(done, bands) / bands, "Generating the grains"
-                textures = result
-        finally:
-            progressive.close()
-        yield 0.6, "Encoding the images"
-        files = _encode_files(preset, textures)
+
+    def _run(self, preset, size, out_dir, ctx, target, formats, backend):
+        textures = yield from generation_steps(preset, size, ctx, backend=backend)
+        if target == DEFAULT_TARGET:
+            yield 0.6, "Encoding the images"
+            files = _encode_files(preset, textures)
+            record = json.loads(files["material.json"])
+        else:
+            yield 0.6, "Making the material maps"
+            maps = material_maps(preset, textures)
+            yield 0.7, "Encoding the images"
+            files = texture_set(preset, maps, target, formats, preset.name)
+            record = _set_record(preset, textures, target, files)
         yield 0.95, f"Writing {len(files)} files"
         write_folder(out_dir, files)
-        self.record = json.loads(files["material.json"])
+        self.record = record
         yield 1.0, "Done"
