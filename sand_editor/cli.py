@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 import threading
@@ -15,6 +16,9 @@ from sand_editor.untrusted import printable, shorten
 MAX_ERROR_CHARS = 500  # one line on stderr, whatever the input held
 # The viewer's grain texture sizes: the editor's preview sizes (whose tiles it shares) and more.
 VR_TEXTURE_SIZES = (256, 512, 1024, 2048)
+PROGRESS_WIDTH = 30
+MIN_PATCH_M, MAX_PATCH_M = 0.01, 1000.0
+COMMANDS = ("edit", "bake", "export", "render", "vr", "bench")
 
 
 class CommandError(Exception):
@@ -44,21 +48,74 @@ def _cmd_edit(args) -> int:
     )
 
 
+def run_with_progress(steps, stream=None) -> None:
+    """Run a job's steps, drawing a progress bar on a terminal (nothing when piped). Ctrl+C or
+    SIGTERM stops it between steps, and nothing is written."""
+    stream = sys.stderr if stream is None else stream
+    shown = stream.isatty()
+    try:
+        for fraction, what in steps:
+            if shown:
+                filled = int(round(PROGRESS_WIDTH * fraction))
+                bar = "█" * filled + "·" * (PROGRESS_WIDTH - filled)
+                stream.write(f"\r{bar} {fraction * 100:3.0f}% {what:<28.28}")
+                stream.flush()
+    except KeyboardInterrupt:
+        steps.close()
+        if shown:
+            stream.write("\n")
+        print("cancelled: nothing was written", file=sys.stderr)
+        raise
+    if shown:
+        stream.write("\r" + " " * (PROGRESS_WIDTH + 34) + "\r")
+        stream.flush()
+
+
 def _cmd_bake(args) -> int:
-    from sand_editor.bake import bake
+    from sand_editor.bake import DEFAULT_TARGET, BakeSteps
+    from sand_editor.export.sets import MapFormats
     from sand_editor.generator import check_size
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise CommandError(f"{out}: is not a folder; --out names the folder to bake into")
     check_size(args.size)
+    formats = None
+    if args.normal_format or args.height_format:
+        formats = MapFormats(
+            normal=args.normal_format or "png8", height=args.height_format or "png16"
+        )
     preset = Preset.load(preset_path(args.preset))
-    report = bake(preset, args.size, Path(args.out))
+    steps = BakeSteps(preset, args.size, out, target=args.target, formats=formats)
+    run_with_progress(steps)
+    report = steps.record
     stats = report["statistics"]
     top = stats["coverage_per_layer"][0] if stats["coverage_per_layer"] else 0.0
+    kind = "" if args.target == DEFAULT_TARGET else f" ({args.target} set)"
     print(
-        f"baked {preset.name} at {args.size}² into {args.out}: top-layer coverage {top:.3f}, "
-        f"gap fraction {stats['gap_fraction']:.3f}, {stats['grain_count']} grains"
+        f"baked {preset.name}{kind} at {args.size}² into {args.out}: top-layer coverage "
+        f"{top:.3f}, gap fraction {stats['gap_fraction']:.3f}, {stats['grain_count']} grains"
+    )
+    return 0
+
+
+def _cmd_export(args) -> int:
+    from sand_editor.export.gltf import PatchOptions
+    from sand_editor.export.run import ExportSteps
+    from sand_editor.generator import check_size
+
+    check_size(args.size)
+    if not (math.isfinite(args.patch) and MIN_PATCH_M <= args.patch <= MAX_PATCH_M):
+        raise CommandError(f"--patch {args.patch}: allowed {MIN_PATCH_M} to {MAX_PATCH_M} metres")
+    preset = Preset.load(preset_path(args.preset))
+    options = PatchOptions(size_m=args.patch, sphere=args.sphere)
+    steps = ExportSteps(preset, Path(args.out), args.format, args.size, options)
+    run_with_progress(steps)
+    record = steps.record
+    count = len(record["files"])
+    print(
+        f"exported {preset.name} as {record['format']} ({count} file{'s' if count > 1 else ''}, "
+        f"{record['bytes'] / 1e6:.1f} MB) to {args.out}"
     )
     return 0
 
@@ -195,6 +252,12 @@ def _cmd_bench(args) -> int:
         from sand_editor.bench.vr_runtime import main as bench_vr_runtime
 
         return bench_vr_runtime(quick=args.quick, json_path=args.json)
+    if args.what == "export":
+        if args.sizes or args.plot:
+            raise CommandError("--sizes and --plot do not apply to the export benchmark")
+        from sand_editor.bench.export import main as bench_export
+
+        return bench_export(quick=args.quick, json_path=args.json)
     if args.what == "gpu":
         if args.plot:
             raise CommandError("--plot does not apply to the gpu benchmark")
@@ -229,7 +292,35 @@ def _parser() -> argparse.ArgumentParser:
     bake.add_argument("preset", help="preset file or bundled preset name")
     bake.add_argument("--size", type=int, default=2048, help="texture edge in pixels (64-4096)")
     bake.add_argument("--out", required=True, help="output folder (created if missing)")
+    from sand_editor.bake import DEFAULT_TARGET, TARGETS
+    from sand_editor.export.images import FORMATS as MAP_FORMATS
+
+    bake.add_argument(
+        "--target",
+        choices=TARGETS,
+        default=DEFAULT_TARGET,
+        help="whose texture set: ours (the default), or an engine's packing and conventions",
+    )
+    bake.add_argument(
+        "--normal-format",
+        choices=MAP_FORMATS,
+        help="normal map file: 8- or 16-bit PNG, or float EXR (engine targets; default png8)",
+    )
+    bake.add_argument(
+        "--height-format",
+        choices=MAP_FORMATS,
+        help="height map file (engine targets; default png16)",
+    )
     bake.set_defaults(run=_cmd_bake)
+
+    export = sub.add_parser("export", help="write a sand patch as a glTF 2.0 asset (.glb, .gltf)")
+    export.add_argument("preset", help="preset file or bundled preset name")
+    export.add_argument("--out", required=True, help="the .glb or .gltf file to write")
+    export.add_argument("--format", choices=["glb", "gltf"], help="default: from --out's suffix")
+    export.add_argument("--size", type=int, default=1024, help="texture edge in pixels (64-4096)")
+    export.add_argument("--patch", type=float, default=2.0, help="edge of the patch in metres")
+    export.add_argument("--sphere", action="store_true", help="put the sand sphere on the patch")
+    export.set_defaults(run=_cmd_export)
 
     from sand_editor.render.modes import MODES
 
@@ -303,6 +394,7 @@ def _parser() -> argparse.ArgumentParser:
             "vr-link",
             "vr-runtime",
             "gpu",
+            "export",
         ],
         help="what to measure",
     )
@@ -323,10 +415,11 @@ def _terminated(signum, frame):
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    if not argv or (argv[0] not in {"edit", "bake", "render", "vr", "bench", "-h", "--help"}):
+    if not argv or (argv[0] not in {*COMMANDS, "-h", "--help"}):
         argv = ["edit", *argv]
     args = _parser().parse_args(argv)
-    if args.command in ("bake", "render") and threading.current_thread() is threading.main_thread():
+    main_thread = threading.current_thread() is threading.main_thread()
+    if args.command in ("bake", "export", "render") and main_thread:
         signal.signal(signal.SIGTERM, _terminated)
     try:
         return args.run(args)

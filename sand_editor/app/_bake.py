@@ -1,5 +1,6 @@
-"""File → Bake textures…: the ``bake`` outputs written from the window, on a worker thread, with
-a progress dialog whose Cancel leaves the folder as it was."""
+"""File → Bake textures… and File → Export glTF…: the ``bake`` and ``export`` outputs written
+from the window, on a worker thread, with a progress dialog whose Cancel leaves the files as they
+were."""
 
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ _PROGRESS_STEPS = 1000
 
 
 class BakeJob(QObject):
-    """Runs ``sand_editor.bake.BakeSteps`` on a worker thread with its own headless context.
+    """Runs ``sand_editor.bake.BakeSteps`` (or, with ``export``, the glTF export's steps into
+    ``out_dir`` as a file) on a worker thread with its own headless context.
 
     Signals (delivered in the GUI thread)
     -------------------------------------
@@ -36,9 +38,18 @@ class BakeJob(QObject):
     failed = Signal(str)
     cancelled = Signal()
 
-    def __init__(self, preset: Preset, size: int, out_dir: Path, parent: QObject | None = None):
+    def __init__(
+        self,
+        preset: Preset,
+        size: int,
+        out_dir: Path,
+        parent: QObject | None = None,
+        export: bool = False,
+    ):
         super().__init__(parent)
         self.preset, self.size, self.out_dir = preset, size, Path(out_dir)
+        self.export = export
+        self.verb = "Exporting" if export else "Baking"
         self._cancel = threading.Event()
         self._thread = threading.Thread(target=self._run, name="sand-bake", daemon=True)
 
@@ -56,12 +67,16 @@ class BakeJob(QObject):
         import moderngl
 
         from sand_editor.bake import BakeSteps
+        from sand_editor.export.run import ExportSteps
         from sand_editor.gl import REQUIRED_GL_VERSION
 
         ctx = None
         try:
             ctx = moderngl.create_standalone_context(require=REQUIRED_GL_VERSION, backend="egl")
-            steps = BakeSteps(self.preset, self.size, self.out_dir, ctx=ctx)
+            if self.export:
+                steps = ExportSteps(self.preset, self.out_dir, size=self.size, ctx=ctx)
+            else:
+                steps = BakeSteps(self.preset, self.size, self.out_dir, ctx=ctx)
             try:
                 for fraction, step in steps:
                     # The last step writes every file at once; before it, stopping leaves
@@ -74,7 +89,8 @@ class BakeJob(QObject):
                 steps.close()
             self.succeeded.emit(steps.record)
         except Exception as error:  # disk, permission and driver errors are shown
-            self.failed.emit(f"Cannot bake into {self.out_dir}: {error}")
+            into = "export to" if self.export else "bake into"
+            self.failed.emit(f"Cannot {into} {self.out_dir}: {error}")
         finally:
             if ctx is not None:
                 ctx.release()
@@ -85,9 +101,9 @@ class BakeDialog(QProgressDialog):
 
     def __init__(self, job: BakeJob, parent: QWidget | None = None):
         super().__init__(
-            f"Baking {job.preset.name} at {job.size}²…", "Cancel", 0, _PROGRESS_STEPS, parent
+            f"{job.verb} {job.preset.name} at {job.size}²…", "Cancel", 0, _PROGRESS_STEPS, parent
         )
-        self.setWindowTitle("Bake textures")
+        self.setWindowTitle("Export glTF" if job.export else "Bake textures")
         self.setWindowModality(Qt.WindowModality.WindowModal)
         self.setMinimumDuration(0)
         self.setAutoClose(False)
@@ -107,7 +123,7 @@ class BakeDialog(QProgressDialog):
         super().cancel()
 
     def _progressed(self, fraction: float, step: str) -> None:
-        self.setLabelText(f"Baking {self.job.preset.name} at {self.job.size}²: {step}…")
+        self.setLabelText(f"{self.job.verb} {self.job.preset.name} at {self.job.size}²: {step}…")
         self.setValue(round(fraction * _PROGRESS_STEPS))
 
     def _succeeded(self, record: dict) -> None:

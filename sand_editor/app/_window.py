@@ -25,12 +25,12 @@ from sand_editor.app._settings import EditorSettings
 from sand_editor.app._vr_controls import VrControls
 from sand_editor.app._window_files import STATUS_MESSAGE_MS, WindowFiles
 from sand_editor.generator import SandTextures
-from sand_editor.preset import FIELDS, Preset, PresetError
+from sand_editor.preset import FIELDS, GLTF_SUFFIXES, Preset, PresetError
 from sand_editor.resources import bundled_preset, presets_dir, ui_dir
 from sand_editor.view import ViewModel
 
 _REGENERATING = frozenset(spec.path for spec in FIELDS if spec.regenerates)
-_FILE_FILTER = "Sand presets (*.json);;All files (*)"
+_FILE_FILTER = "Sand presets (*.json);;Exported glTF (*.glb *.gltf);;All files (*)"
 DEFAULT_SIZE = (1280, 820)
 
 
@@ -107,8 +107,11 @@ class EditorWindow(WindowFiles, QMainWindow):
         return self._path
 
     def open_path(self, path: str | Path) -> bool:
-        """Load a preset file; on failure show the error and keep the current work."""
-        return self._load(Path(path), save_path=Path(path))
+        """Load a preset file (or the preset inside an exported glTF file, which is then saved
+        as a new preset: Save asks where); on failure show the error and keep the current work."""
+        path = Path(path)
+        imported = path.suffix.lower() in GLTF_SUFFIXES
+        return self._load(path, save_path=None if imported else path)
 
     def open_bundled(self, name: str) -> bool:
         """Load a shipped preset as a template: Save asks where to write the copy."""
@@ -216,6 +219,9 @@ class EditorWindow(WindowFiles, QMainWindow):
         self.bake_action = self._action(
             "&Bake textures…", self._ask_bake, "Ctrl+B", "Write the grain textures as PNG files"
         )
+        self.export_action = self._action(
+            "&Export glTF…", self._ask_export, "Ctrl+E", "Write a sand patch as a glTF 2.0 asset"
+        )
         self.screenshot_action = self._action(
             "Save scree&nshot…", self._ask_screenshot, "Ctrl+Shift+S", "Save the window as PNG"
         )
@@ -243,7 +249,7 @@ class EditorWindow(WindowFiles, QMainWindow):
         file_menu.addSeparator()
         file_menu.addActions([save, save_as, self.revert_action])
         file_menu.addSeparator()
-        file_menu.addActions([self.bake_action, self.screenshot_action])
+        file_menu.addActions([self.bake_action, self.export_action, self.screenshot_action])
         file_menu.addSeparator()
         file_menu.addAction(quit_)
         edit_menu = self.menuBar().addMenu("&Edit")

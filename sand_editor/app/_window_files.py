@@ -9,7 +9,9 @@ from PySide6.QtCore import QBuffer, QByteArray, QIODevice
 from PySide6.QtWidgets import QFileDialog, QInputDialog, QMessageBox
 
 from sand_editor.app._bake import BAKE_SIZES, DEFAULT_BAKE_SIZE, BakeDialog, BakeJob
+from sand_editor.export.run import DEFAULT_TEXTURE_SIZE as EXPORT_SIZE
 from sand_editor.files import OutputError, write_atomic
+from sand_editor.preset import GLTF_SUFFIXES
 
 _IMAGE_FILTER = "PNG images (*.png)"
 STATUS_MESSAGE_MS = 6000
@@ -76,13 +78,26 @@ class WindowFiles:
         if ok:
             self.bake_to(Path(folder), int(size))
 
-    def bake_to(self, folder: Path, size: int) -> BakeDialog:
-        """Start baking the current preset into ``folder``; returns the open progress dialog."""
-        job = BakeJob(self.model.preset, size, Path(folder), self)
+    def _ask_export(self) -> None:
+        start = str((self._path.parent if self._path else Path.cwd()) / self.model.preset.name)
+        chosen, _ = QFileDialog.getSaveFileName(
+            self, "Export glTF", start + ".glb", "glTF binary (*.glb);;glTF with files (*.gltf)"
+        )
+        if not chosen:
+            return
+        if Path(chosen).suffix.lower() not in (".glb", ".gltf"):
+            chosen += ".glb"
+        self.bake_to(Path(chosen), EXPORT_SIZE, export=True)
+
+    def bake_to(self, folder: Path, size: int, export: bool = False) -> BakeDialog:
+        """Start baking the current preset into ``folder`` (with ``export``: the glTF asset to
+        that file); returns the open progress dialog."""
+        job = BakeJob(self.model.preset, size, Path(folder), self, export=export)
         dialog = BakeDialog(job, self)
         dialog.finished.connect(lambda: self._bake_done(dialog))
         self.bake_dialog = dialog
         self.bake_action.setEnabled(False)
+        self.export_action.setEnabled(False)
         dialog.open()
         job.start()
         return dialog
@@ -90,14 +105,21 @@ class WindowFiles:
     def _bake_done(self, dialog: BakeDialog) -> None:
         self.bake_dialog = None
         self.bake_action.setEnabled(True)
+        self.export_action.setEnabled(True)
+        job = dialog.job
         if dialog.error is not None:
-            QMessageBox.critical(self, "Cannot bake", dialog.error)
-        elif dialog.result is not None:
-            self.statusBar().showMessage(
-                f"Baked {dialog.job.size}² textures into {dialog.job.out_dir}", STATUS_MESSAGE_MS
+            QMessageBox.critical(
+                self, "Cannot export" if job.export else "Cannot bake", dialog.error
             )
+        elif dialog.result is not None:
+            if job.export:
+                message = f"Exported {job.out_dir} ({job.size}² textures)"
+            else:
+                message = f"Baked {job.size}² textures into {job.out_dir}"
+            self.statusBar().showMessage(message, STATUS_MESSAGE_MS)
         else:
-            self.statusBar().showMessage("Bake cancelled; nothing written", STATUS_MESSAGE_MS)
+            stopped = "Export" if job.export else "Bake"
+            self.statusBar().showMessage(f"{stopped} cancelled; nothing written", STATUS_MESSAGE_MS)
 
     def _ask_screenshot(self) -> None:
         start = str(Path.cwd() / f"{self.model.preset.name}.png")
@@ -123,10 +145,11 @@ class WindowFiles:
 
 
 def _dropped_preset(mime) -> Path | None:
-    """The first local .json file among dropped URLs, or None."""
+    """The first local preset file (.json, or an exported .glb or .gltf) among dropped URLs, or
+    None."""
     for url in mime.urls() if mime.hasUrls() else []:
         if url.isLocalFile():
             path = Path(url.toLocalFile())
-            if path.suffix.lower() == ".json" and path.is_file():
+            if path.suffix.lower() in (".json", *GLTF_SUFFIXES) and path.is_file():
                 return path
     return None

@@ -1,10 +1,15 @@
-"""Reading and writing preset files: size limit, UTF-8, strict JSON, atomic replacement."""
+"""Reading and writing preset files: size limit, UTF-8, strict JSON, atomic replacement.
+
+A glTF asset that ``sand-editor export`` wrote (``.glb`` or ``.gltf``) reads as the preset in
+its material's extras; only its JSON is read, never its images.
+"""
 
 from __future__ import annotations
 
 import json
 import os
 import stat
+import struct
 from typing import Any
 
 from sand_editor.files import OutputError, write_atomic
@@ -14,6 +19,9 @@ from sand_editor.untrusted import bounded_number
 MAX_FILE_BYTES = 1 << 20
 MAX_NUMBER_CHARS = 100  # every value a preset allows is written in far fewer
 _LIMIT_TEXT = f"presets are limited to 1 MiB ({MAX_FILE_BYTES} bytes)"
+GLTF_SUFFIXES = (".glb", ".gltf")
+GLTF_EXTRAS_KEY = "sand_editor"  # materials[i].extras.sand_editor.preset
+_GLB_MAGIC, _GLB_JSON = 0x46546C67, 0x4E4F534A
 
 
 def _reason(error: OSError) -> str:
@@ -79,12 +87,14 @@ def read_json(path: str | os.PathLike[str]) -> Any:
         raise PresetError("is a folder; allowed a preset file", source=source)
     if not stat.S_ISREG(info.st_mode):
         raise PresetError("is not a regular file; allowed a preset file", source=source)
-    # Checked before reading so that a huge (or sparse) file costs nothing.
-    if info.st_size > MAX_FILE_BYTES:
+    glb = source.lower().endswith(".glb")
+    # Checked before reading so that a huge (or sparse) file costs nothing; a GLB's images are
+    # not read at all.
+    if info.st_size > MAX_FILE_BYTES and not glb:
         raise PresetError(f"the file is {info.st_size} bytes; {_LIMIT_TEXT}", source=source)
     try:
         with open(source, "rb") as stream:
-            raw = stream.read(MAX_FILE_BYTES + 1)
+            raw = _glb_json_chunk(stream, source) if glb else stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
         raise PresetError(f"cannot read: {_reason(error)}", source=source) from None
     if len(raw) > MAX_FILE_BYTES:
@@ -99,9 +109,44 @@ def read_json(path: str | os.PathLike[str]) -> Any:
             source=source,
         ) from None
     try:
-        return parse_json(text)
+        document = parse_json(text)
     except PresetError as error:
         raise error.located(source) from None
+    if source.lower().endswith(GLTF_SUFFIXES):
+        return _preset_in_gltf(document, source)
+    return document
+
+
+def _glb_json_chunk(stream, source: str) -> bytes:
+    """The JSON chunk of a binary glTF (its header, then the first chunk), bounded."""
+    header = stream.read(20)
+    if len(header) < 20:
+        raise PresetError("is not a binary glTF: shorter than its header", source=source)
+    magic, version, _length, chunk_length, chunk_type = struct.unpack("<5I", header)
+    if magic != _GLB_MAGIC or version != 2 or chunk_type != _GLB_JSON:
+        raise PresetError("is not a binary glTF 2.0 (no glTF header and JSON chunk)", source=source)
+    if chunk_length > MAX_FILE_BYTES:
+        raise PresetError(
+            f"its JSON chunk is {chunk_length} bytes; allowed up to {MAX_FILE_BYTES}", source=source
+        )
+    raw = stream.read(chunk_length)
+    if len(raw) != chunk_length:
+        raise PresetError("is cut short inside its JSON chunk", source=source)
+    return raw
+
+
+def _preset_in_gltf(document: Any, source: str) -> Any:
+    materials = document.get("materials") if isinstance(document, dict) else None
+    for material in materials if isinstance(materials, list) else []:
+        extras = material.get("extras") if isinstance(material, dict) else None
+        ours = extras.get(GLTF_EXTRAS_KEY) if isinstance(extras, dict) else None
+        if isinstance(ours, dict) and "preset" in ours:
+            return ours["preset"]
+    raise PresetError(
+        f"has no sand preset (materials[].extras.{GLTF_EXTRAS_KEY}.preset); allowed a glTF "
+        "file that sand-editor export wrote",
+        source=source,
+    )
 
 
 def to_json_text(document: Any) -> str:
@@ -134,6 +179,11 @@ def write_json_atomic(path: str | os.PathLike[str], document: Any) -> None:
         For any failure, naming the file.
     """
     source = os.fspath(path)
+    if source.lower().endswith(GLTF_SUFFIXES):
+        raise PresetError(
+            "is a glTF file; presets are saved as .json (sand-editor export writes glTF)",
+            source=source,
+        )
     try:
         payload = to_json_text(document).encode("utf-8")
     except (TypeError, ValueError) as error:

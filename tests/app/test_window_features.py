@@ -184,6 +184,28 @@ def test_a_cancelled_bake_leaves_the_folder_as_it_was(qtbot, settings_file, tmp_
     close(window, qtbot)
 
 
+def test_export_from_the_window_writes_a_glb_that_opens_as_a_new_preset(
+    qtbot, settings_file, tmp_path
+):
+    window = make_window(qtbot, settings_file, Preset.load(bundled_preset("red-desert")))
+    out = tmp_path / "red.glb"
+    dialog = window.bake_to(out, 128, export=True)
+    assert dialog.windowTitle() == "Export glTF"
+    assert not window.export_action.isEnabled() and not window.bake_action.isEnabled()
+    qtbot.waitUntil(lambda: window.bake_dialog is None, timeout=TIMEOUT_MS)
+    assert dialog.error is None and dialog.result["format"] == "glb"
+    assert out.is_file() and not list(tmp_path.glob(".red.glb.*")), "no temporary left"
+    assert "Exported" in window.statusBar().currentMessage()
+    assert window.export_action.isEnabled()
+
+    window.new_preset()
+    assert window.open_path(out)
+    assert window.model.preset == Preset.load(bundled_preset("red-desert"))
+    # An imported glTF is not overwritten by Save: it is a new preset's source.
+    assert window._path is None
+    close(window, qtbot)
+
+
 def test_a_bake_into_an_unwritable_place_says_why(qtbot, settings_file, tmp_path, monkeypatch):
     window = make_window(qtbot, settings_file)
     blocker = tmp_path / "a-file"

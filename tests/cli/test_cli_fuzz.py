@@ -11,14 +11,16 @@ from sand_editor.cli import main
 
 values = st.one_of(
     st.sampled_from(["0", "-1", "1e999", "nan", "inf", "25:00", "12:60", "10x10", "0x5",
-                     "99999x1", "red-desert", "no-such", "a\nb", "\x1b[31m", "", "-", "--"]),
+                     "99999x1", "red-desert", "no-such", "a\nb", "\x1b[31m", "", "-", "--",
+                     "glb", "gltf", "unreal", "godot", "exr", "png16"]),
     st.text(max_size=30),
     st.integers().map(str),
     st.floats().map(str),
 )  # fmt: skip
 FLAGS = {
     "render": ["--size", "--distance", "--time", "--mode", "--pitch"],
-    "bake": ["--size"],
+    "bake": ["--size", "--target", "--normal-format", "--height-format"],
+    "export": ["--size", "--patch", "--format"],
     "vr": ["--render-scale", "--time", "--day-speed", "--mode", "--frames", "--screenshot"],
 }
 
@@ -35,7 +37,8 @@ def test_fuzzed_command_lines_end_in_one_documented_error(command, data, tmp_pat
     argv = [command, data.draw(values | st.just("paper-default"), label="preset")]
     for flag in data.draw(st.lists(st.sampled_from(FLAGS[command]), max_size=4), label="flags"):
         argv += [flag, data.draw(values, label=flag)]
-    # An output that exists and is a folder (render, vr) or a file (bake): refused before work.
+    # An output that exists and is a folder (render, vr, export) or a file (bake): refused
+    # before work.
     if command == "bake":
         target = tmp_path / "a-file"
         target.write_text("")

@@ -1,0 +1,66 @@
+"""``sand-editor export``: generate the tile, make the maps, write the glTF asset."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from sand_editor.export.gltf import FORMATS, PatchOptions, export_files
+from sand_editor.export.maps import material_maps
+from sand_editor.export.steps import Steps, generation_steps
+from sand_editor.files import check_regular_target, write_atomic, write_folder
+from sand_editor.preset import Preset
+
+DEFAULT_TEXTURE_SIZE = 1024
+
+
+def format_for(out: Path, fmt: str | None) -> str:
+    """The format asked for, or the one the file name's suffix names."""
+    if fmt is None:
+        fmt = out.suffix.lower().lstrip(".")
+        if fmt not in FORMATS:
+            raise ValueError(
+                f"{out}: cannot tell the format from the suffix; name a .glb or .gltf file, or "
+                f"give --format ({', '.join(FORMATS)})"
+            )
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; allowed {', '.join(FORMATS)}")
+    return fmt
+
+
+class ExportSteps(Steps):
+    """The export in short steps (see :class:`~sand_editor.export.steps.Steps`): nothing is
+    written unless it runs to the end. A GLB is one atomic file; a .gltf and its .bin and images
+    are written as one unit into its folder, the .gltf last."""
+
+    def __init__(
+        self,
+        preset: Preset,
+        out: Path,
+        fmt: str | None = None,
+        size: int = DEFAULT_TEXTURE_SIZE,
+        options: PatchOptions | None = None,
+        ctx=None,
+    ) -> None:
+        out = Path(out)
+        fmt = format_for(out, fmt)
+        check_regular_target(out)
+        super().__init__(self._run(preset, out, fmt, size, options or PatchOptions(), ctx))
+
+    def _run(self, preset, out, fmt, size, options, ctx):
+        textures = yield from generation_steps(preset, size, ctx, share=0.5)
+        yield 0.5, "Making the material maps"
+        maps = material_maps(preset, textures)
+        yield 0.7, "Encoding the images"
+        files = export_files(preset, maps, out, fmt, options)
+        yield 0.95, f"Writing {len(files)} file{'s' if len(files) > 1 else ''}"
+        if fmt == "glb":
+            write_atomic(out, files[out.name], make_folder=True)
+        else:
+            write_folder(out.parent, files)
+        self.record = {
+            "format": fmt,
+            "files": list(files),
+            "bytes": sum(len(data) for data in files.values()),
+            "albedo_scale": [float(c) for c in maps.albedo_scale],
+        }
+        yield 1.0, "Done"
