@@ -5,7 +5,8 @@
 # Works on a fresh Debian 12 as root, or as a user with sudo.
 
 # Mesa's EGL and GL (headless rendering on llvmpipe), Xvfb, and the X libraries Qt's xcb plugin
-# loads; debootstrap builds the OpenXR runtime's root for the VR tests.
+# loads; debootstrap builds the OpenXR runtime's root for the VR tests, and the export tests
+# render exported glTF files with three.js in headless Chromium.
 SYSTEM_PACKAGES=(
     ca-certificates python3 python3-venv python3-pip
     libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libglx-mesa0 libopengl0 libgles2
@@ -15,7 +16,7 @@ SYSTEM_PACKAGES=(
     libxcb-xkb1 libx11-xcb1 libxrender1 libxi6 libsm6 libice6
     xvfb xauth
 )
-TEST_SYSTEM_PACKAGES=(debootstrap util-linux)
+TEST_SYSTEM_PACKAGES=(debootstrap util-linux chromium)
 
 say() { printf 'sand-editor setup: %s\n' "$*" >&2; }
 
@@ -86,4 +87,37 @@ ensure_venv() {
     "$venv/bin/python" -m pip install -q --upgrade pip
     "$venv/bin/python" -m pip install -q -e ".[${extras}]"
     echo "$hash $extras" >"$venv/.sand-editor-stamp"
+}
+
+# Installs the Node packages of tools/js (three.js, the Khronos glTF validator) with npm ci into
+# ${SAND_EDITOR_CACHE:-~/.cache/sand-editor}/js/<first 16 hex digits of the sha256 of
+# tools/js/package-lock.json>, outside the repository, and exports that folder as SAND_EDITOR_JS
+# (tests/export/js_tools.py computes the same path). A finished install is marked by a
+# .sand-editor-complete file and is not repeated; a changed lock file gets a new folder.
+ensure_js_packages() {
+    local cache hash dir tmp
+    cache=$(realpath -m -- "${SAND_EDITOR_CACHE:-$HOME/.cache/sand-editor}")
+    hash=$(sha256sum tools/js/package-lock.json | cut -c1-16)
+    dir=$cache/js/$hash
+    if [[ ! -f $dir/.sand-editor-complete ]]; then
+        if ! command -v npm >/dev/null; then
+            # Debian 12's Node.js 18 and npm are enough for three.js and the validator.
+            say "installing Debian packages: nodejs npm"
+            as_root env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+            as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+        fi
+        say "installing the Node packages of tools/js into $dir"
+        mkdir -p "$cache/js"
+        tmp=$(mktemp -d "$cache/js/.install-$hash.XXXXXX")
+        cp tools/js/package.json tools/js/package-lock.json "$tmp/"
+        if ! (cd "$tmp" && npm ci --no-audit --no-fund --silent); then
+            rm -rf "$tmp"
+            say "npm ci failed for tools/js"
+            return 1
+        fi
+        touch "$tmp/.sand-editor-complete"
+        rm -rf "$dir"
+        mv -T "$tmp" "$dir" 2>/dev/null || rm -rf "$tmp"
+    fi
+    export SAND_EDITOR_JS=$dir
 }

@@ -77,6 +77,7 @@ class MaterialProbe:
         self.width, self.height = width, height
         self.glint_filter = "ours"
         self.relief = False  # the grains' relief up close (u_relief, sand_relief.glsl)
+        self.ripples = True  # the wind's ripples on the plane (u_no_ripples off)
         self.ground_truth_samples = 16  # K: the ground truth's K×K albedo and slope samples
         # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz;
         # compiled with the benchmark's glint filters (SAND_PROBE), which production lacks.
@@ -134,6 +135,7 @@ class MaterialProbe:
                 set_uniform(p, name, tuple(float(c) for c in value))
             p["u_mode"].value = mode_index(mode)
             self.material.bind(p)
+            set_uniform(p, "u_no_ripples", 0.0 if self.ripples else 1.0)
             own = {"u_glint_filter": GLINT_FILTERS[self.glint_filter],
                    "u_ground_truth_samples": int(self.ground_truth_samples),
                    "u_relief": int(self.relief)}  # fmt: skip
