@@ -86,6 +86,7 @@ def loop_report(loop) -> dict:
         "wait_ms": summary(stats.wait_ms),
         "submit_ms": summary(stats.submit_ms),
         "frame_gap_ms": summary(stats.gaps_ms),
+        "display_refresh_hz": getattr(backend, "display_refresh_hz", None),
         "display_periods_per_frame": summary(stats.display_periods),
         "max_frame_gap_ms": round(max(stats.gaps_ms, default=0.0), 2),
         "max_frame_gap_at_frame": stats.max_gap_frame,

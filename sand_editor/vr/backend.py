@@ -26,7 +26,9 @@ class Frame:
     eyes: list[EyeView]
     input: InputState = field(default_factory=InputState)
     input_ms: float = 0.0  # reading the controls: the viewer's own work, part of the overhead
-    display_period_s: float = 1 / 90  # the display's refresh period, as the backend predicts
+    # The display's refresh period: the runtime's refresh rate where it says it, else its
+    # predicted display period.
+    display_period_s: float = 1 / 90
 
 
 class Backend(Protocol):

@@ -9,6 +9,7 @@ position, normal and linear albedo, three rows per triangle.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -162,15 +163,23 @@ class DeskLayout:
         return np.vstack(parts).astype(np.float32)
 
 
+@functools.cache
+def _controller_body() -> np.ndarray:
+    """The controller's ``props`` rows in its own aim frame: a grip behind the aim point, and a
+    pale ring at its front where the ray leaves (built once; each frame only moves them)."""
+    grip = box_props((0.0, -0.012, 0.07), (0.036, 0.03, 0.12), CONTROLLER)
+    ring = box_props((0.0, 0.0, 0.006), (0.05, 0.05, 0.012), CONTROLLER_RING)
+    body = np.vstack([grip, ring]).astype(np.float64)
+    body.setflags(write=False)
+    return body
+
+
 def controller_props(pose) -> np.ndarray:
-    """A controller's body at an aim ``pose`` (world): a grip behind the aim point, and a
-    pale ring at its front where the ray leaves."""
+    """A controller's body at an aim ``pose`` (world), as ``props`` rows."""
     rotation = pose.rotation()
-    position = np.asarray(pose.position, dtype=np.float64)
-
-    def at(local):
-        return position + rotation @ np.asarray(local, dtype=np.float64)
-
-    grip = box_props(at((0.0, -0.012, 0.07)), (0.036, 0.03, 0.12), CONTROLLER, rotation)
-    ring = box_props(at((0.0, 0.0, 0.006)), (0.05, 0.05, 0.012), CONTROLLER_RING, rotation)
-    return np.vstack([grip, ring]).astype(np.float32)
+    body = _controller_body()
+    rows = np.empty(body.shape, dtype=np.float32)
+    rows[:, 0:3] = body[:, 0:3] @ rotation.T + np.asarray(pose.position, dtype=np.float64)
+    rows[:, 3:6] = body[:, 3:6] @ rotation.T
+    rows[:, 6:9] = body[:, 6:9]
+    return rows

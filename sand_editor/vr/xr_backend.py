@@ -36,8 +36,17 @@ def _text(value) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
+# Enabled where the runtime offers them: depth layers for its reprojection, and the display's
+# refresh rate (the report's display periods per frame; predictedDisplayPeriod is the runtime's
+# pacing period for the app, a whole number of refreshes, not the refresh).
+OPTIONAL_EXTENSIONS = (
+    xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME,
+    xr.FB_DISPLAY_REFRESH_RATE_EXTENSION_NAME,
+)
+
+
 def create_instance(enabled: list[str] | None = None) -> xr.Instance:
-    """An instance with OpenGL (and composition layer depth where offered); ``NoRuntimeError``
+    """An instance with OpenGL (and the optional extensions where offered); ``NoRuntimeError``
     when no runtime is installed or active. ``enabled``, given, gets the extensions' names."""
     try:
         available = xr.enumerate_instance_extension_properties()
@@ -46,8 +55,9 @@ def create_instance(enabled: list[str] | None = None) -> xr.Instance:
                 "the active OpenXR runtime does not offer OpenGL (XR_KHR_opengl_enable)"
             )
         extensions = [xr.KHR_OPENGL_ENABLE_EXTENSION_NAME]
-        if xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME in available:
-            extensions.append(xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME)
+        for optional in OPTIONAL_EXTENSIONS:
+            if optional in available:
+                extensions.append(optional)
         if enabled is not None:
             enabled[:] = extensions
         return xr.create_instance(
@@ -120,6 +130,8 @@ class XrBackend:
         enabled: list[str] = []
         self.instance = create_instance(enabled)
         self.depth_offered = xr.KHR_COMPOSITION_LAYER_DEPTH_EXTENSION_NAME in enabled
+        self._refresh_offered = xr.FB_DISPLAY_REFRESH_RATE_EXTENSION_NAME in enabled
+        self.display_refresh_hz: float | None = None
         self._teardown.callback(xr.destroy_instance, self.instance)
         try:
             self._start(windows_factory, render_scale)
@@ -159,6 +171,9 @@ class XrBackend:
                 f"{self.ctx.info['GL_VERSION']}"
             ) from None
         self._teardown.callback(xr.destroy_session, self.session)
+        if self._refresh_offered:
+            rate = float(xr.get_display_refresh_rate_fb(self.session).value)
+            self.display_refresh_hz = rate if rate > 0 else None
         spaces = list(xr.enumerate_reference_spaces(self.session))
         self.floor_level = xr.ReferenceSpaceType.STAGE in spaces
         space_type = (
@@ -319,6 +334,8 @@ class XrBackend:
         controls = self._controllers.read(display_time) if self._focused else InputState()
         input_ms = (time.perf_counter() - start) * 1e3
         period = frame_state.predicted_display_period * 1e-9
+        if self.display_refresh_hz is not None:
+            period = 1.0 / self.display_refresh_hz
         return Frame(display_time * 1e-9, bool(frame_state.should_render), eyes, controls,
                      input_ms, period if period > 0 else 1 / 90)  # fmt: skip
 
