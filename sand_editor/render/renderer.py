@@ -330,11 +330,12 @@ class SandRenderer:
 
     # ---- meshes -----------------------------------------------------------------------------
 
-    def terrain_level_of_detail(self, eye) -> tuple:
-        """(finest ring spacing, centre, outer radius) of the terrain mesh for an eye: the mesh
-        is rebuilt only when this changes, i.e. when the eye has moved by a fraction of the
-        finest ring spacing, or its height above the ground changed by a factor of two."""
-        clearance = max(self.terrain.clearance(eye), 1e-6)
+    def terrain_level_of_detail(self, eye, ground: float | None = None) -> tuple:
+        """(finest ring spacing, centre, outer radius) of the terrain mesh for an eye (``ground``:
+        the height below it, if known): rebuilt only when this changes, as the eye moves by a
+        fraction of the finest spacing or its height above the ground changes by a factor 2."""
+        below = self.terrain.height(eye[0], eye[2]) if ground is None else ground
+        clearance = max(float(eye[1]) - float(below), 1e-6)
         inner = 2.0 ** math.floor(math.log2(min(max(0.1 * clearance, 1e-6), 0.5)))
         snap = 2.0 * inner
         center = (round(eye[0] / snap) * snap, round(eye[2] / snap) * snap)

@@ -36,11 +36,14 @@ class FrameStats:
 def count_levels_of_detail(stats: FrameStats, renderer, head, cameras) -> None:
     """How often the head's terrain level of detail changed, and how often the eyes would
     have disagreed on it had each chosen its own (the cost the shared scene avoids)."""
-    key = renderer.terrain_level_of_detail(head.eye)
+    # One look-up of the ground serves all three: the eyes are centimetres from the head, and
+    # the dunes' height changes by far less than a level's factor of two over that.
+    ground = float(renderer.terrain.height(head.eye[0], head.eye[2]))
+    key = renderer.terrain_level_of_detail(head.eye, ground)
     if key != stats.head_lod:
         stats.head_lod_changes += 1
         stats.head_lod = key
-    eye_keys = {renderer.terrain_level_of_detail(c.eye) for c in cameras}
+    eye_keys = {renderer.terrain_level_of_detail(c.eye, ground) for c in cameras}
     stats.eye_lod_disagreements += len(eye_keys) > 1
 
 

@@ -88,6 +88,7 @@ class FrameLoop:
         self.pending: tuple[int | None, float] | None = None  # (seq, received) of a request
         self.previous_input = InputState()
         self.previous_time: float | None = None
+        self._sky = None  # (hours, the sky at them): drawn again only when the clock moves
         self.time_dirty_since: float | None = None
         self.last_time_message = 0.0
         self.ready_sent = False
@@ -215,7 +216,9 @@ class FrameLoop:
         count_levels_of_detail(self.stats, self.renderer, head, cameras)
         scene = self.renderer.prepare_frame(head, show_sphere=False)
         state = self.view.state
-        sky = sky_at(state.hours)
+        if self._sky is None or self._sky[0] != state.hours:  # the clock may stand still
+            self._sky = (state.hours, sky_at(state.hours))
+        sky = self._sky[1]
         hands, rays = self.stage.rays(frame.input)
         props = self.stage.props(hands)
         name = self.presets[self._index()][0]
