@@ -97,31 +97,37 @@ void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope, out vec4 no
 // The diffuse light of the sand for one light on a shading normal n with albedo kd, the same
 // close up (the footprint's albedo and mean grain normal) as far away (the tile's, on the
 // macro normal): d'Eon's BRDF of a half space of Lambertian spheres, with the reference's
-// subsurface terms — a share fs of the light wraps around the grains (scattering) and
-// absorption along the subsurface path dims everything by fe.
+// subsurface terms — a share fs of the light wraps around the grains (scattering), and
+// absorption dims that share by fe along its path through them. The grains' colours are what
+// their surfaces send back: absorption never darkens them, so a sand keeps the colour it was
+// given whatever its subsurface settings (the reference dimmed all light by fe, which at the
+// fields' far ends is e^−100: black whatever the colours).
 // The BRDF is taken per unit albedo at the tile's average albedo, so that it is linear in the
 // albedo: the mean over a footprint of many grains is then the BRDF of their mean, and the
 // close range's average is the far range's exactly, whatever the grains' colours.
+float subsurface_share() { return clamp(u_scattering * u_sss, 0.0, 1.0); }
+float subsurface_transmittance() { return exp(-u_absorption * u_sss); }
+
 vec3 sand_diffuse(vec3 kd, vec3 n, vec3 l, vec3 v, vec3 irradiance) {
-    float fs = clamp(u_scattering * u_sss, 0.0, 1.0);
-    float fe = exp(-u_absorption * u_sss);
+    float fs = subsurface_share();
     vec3 per_albedo = sphere_brdf_per_albedo(n, l, v);
-    vec3 direct = kd * ((1.0 - fs) * per_albedo * max(dot(n, l), 0.0) + fs / PI);
-    return fe * direct * irradiance;
+    vec3 direct = kd * ((1.0 - fs) * per_albedo * max(dot(n, l), 0.0)
+                        + fs * subsurface_transmittance() / PI);
+    return direct * irradiance;
 }
 
 // Sky light on the sand: the cosine-weighted sky irradiance of an upward surface, less as the
 // normal turns from the sky.
 vec3 sand_sky(vec3 kd, vec3 n, vec3 sky) {
-    float fe = exp(-u_absorption * u_sss);
-    return fe * kd / PI * sky * (0.5 + 0.5 * n.y);
+    return kd / PI * sky * (0.5 + 0.5 * n.y);
 }
 
-// Light passing through thin grain edges towards a viewer who looks into the light.
+// Light passing through thin grain edges towards a viewer who looks into the light, absorbed
+// along its way through them.
 vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
     float exponent = mix(16.0, 1.0, clamp(u_transmission_roughness, 0.0, 1.0));
     float forward = pow(max(dot(-v, l), 0.0), exponent);
-    return u_transmission * albedo * irradiance * forward / PI;
+    return u_transmission * subsurface_transmittance() * albedo * irradiance * forward / PI;
 }
 
 const float DIFFUSE_CENTRE = 0.2;

@@ -250,11 +250,13 @@ FIELDS: tuple[FieldSpec, ...] = (
              "Index of refraction of the grains: quartz 1.46, volcanic glass about 1.55, "
              "iron-oxide coatings up to 2.4; higher reflects more of the sun."),
     _shading("sss", "float", 0.0, 10.0, 0.733, "Subsurface",
-             "Strength of subsurface scattering and absorption."),
+             "Length of the light's path through the grains: scales the scattering and the "
+             "absorption."),
     _shading("scattering", "float", 0.0, 1.0, 0.075, "Scattering",
              "Light scattered through grains to the side facing away from the light."),
     _shading("absorption", "float", 0.0, 10.0, 0.1, "Absorption",
-             "Light absorbed inside the grains."),
+             "Light absorbed on its way through the grains (the share scattering wraps "
+             "around them, and the transmission); the grains' colours stay as given."),
     _shading("transmission", "float", 0.0, 1.0, 0.045, "Transmission",
              "Light transmitted through the grains toward the viewer."),
     _shading("transmission_roughness", "float", 0.0, 1.0, 0.0, "Transmission roughness",

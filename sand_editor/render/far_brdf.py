@@ -112,12 +112,13 @@ def far_radiance_per_irradiance(preset: Preset, kd, moments, light, eye) -> np.n
     per_albedo = sphere_brdf(kd, ui[..., None], uo[..., None], cos_io[..., None, None]) / (
         np.maximum(kd, 1e-4)
     )
-    direct = (1.0 - fs) * per_albedo * np.maximum(ui, 0.0)[..., None] + fs / np.pi
+    direct = (1.0 - fs) * per_albedo * np.maximum(ui, 0.0)[..., None] + fs * fe / np.pi
     diffuse = np.sum((weights * seen)[..., None] * direct, axis=-2) * lit
     exponent = 16.0 + (1.0 - 16.0) * np.clip(shading.transmission_roughness, 0.0, 1.0)
     forward = np.maximum(-cos_io, 0.0) ** exponent
     through = shading.transmission * forward[..., None] / np.pi * lit
-    return kd * (fe * diffuse + through)
+    # Absorption dims only the light that passes through grains (sand_surface.glsl).
+    return kd * (diffuse + fe * through)
 
 
 def hemisphere(steps: int) -> tuple[np.ndarray, np.ndarray]:
