@@ -28,7 +28,9 @@ from sand_editor.render.modes import mode_index
 # "ours" is the product's; "expected" is the footprint moments' expected value without the
 # sparkle, "reference" the reference's N×N multisampling, "none" one finest tap, and
 # "ground-truth" every grain facet in the pixel; "ours-mean" and "ground-truth-mean" are the
-# expectations of "ours" and "ground-truth" over their draws (energy without the draws' noise).
+# expectations of "ours" and "ground-truth" over their draws (energy without the draws' noise);
+# "one-facet" is the light one mirroring facet of "ours" adds to its pixel (with "ours-mean", the
+# draw's Poisson variance: the expected count is their ratio).
 GLINT_FILTERS = {
     "ours": 0,
     "expected": 1,
@@ -37,6 +39,7 @@ GLINT_FILTERS = {
     "ground-truth": 4,
     "ours-mean": 5,
     "ground-truth-mean": 6,
+    "one-facet": 7,
 }
 
 PLANE_HALF_EXTENT = 1.0e5  # metres: past the far plane of every probe view

@@ -5,7 +5,8 @@
 // Filters: 0 ours (sparkles drawn from the footprint's moments); 1 the expected value of those
 // moments alone; 2 the reference's N×N multisampling of mipmapped normals; 3 none (one tap of the
 // finest level); 4 ground truth (every facet in the pixel, explicitly); 5 and 6: the expectations
-// of 0 and 4 over their draws (no sparkle), which measure energy free of the draws' noise.
+// of 0 and 4 over their draws (no sparkle), which measure energy free of the draws' noise; 7 the
+// density that one mirroring facet of filter 0 gives its pixel (the draw's unit).
 uniform int u_glint_filter;
 // The reference's kernel: N×N taps, this many pixels apart (its saved preview material).
 const int REFERENCE_SAMPLES = 7;
@@ -119,6 +120,12 @@ vec2 probe_glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle
             }
         }
         glint /= total;
+    } else if (u_glint_filter == FILTER_ONE_FACET) {
+        float facet_texels = facet_size_m() * u_uv_scale * u_texture_size;
+        Patches p = footprint_patches(f.tc, f.dx, f.dy, u_texture_size, facet_texels);
+        vec2 per_facet = vec2(mirror_chance(1.0, h0), mirror_chance(1.0, h1)) * p.pixel_facets;
+        glint = vec2(per_facet.x > 0.0 ? 1.0 / per_facet.x : 0.0,
+                     per_facet.y > 0.0 ? 1.0 / per_facet.y : 0.0);
     } else if (u_glint_filter == FILTER_NONE) {
         float w = textureLod(u_glint_moments, f.tc, 0.0).x;
         glint = w < 1e-6 ? vec2(0.0) : w * densities(h0, h1, textureLod(u_spread_moments, f.tc, 0.0).zw);
