@@ -209,6 +209,15 @@ def _cmd_vr(args) -> int:
 
 
 def _cmd_bench(args) -> int:
+    from sand_editor.bench._optional import MissingPackage
+
+    try:
+        return _run_bench(args)
+    except MissingPackage as error:  # the bench extra is not installed
+        raise CommandError(str(error)) from None
+
+
+def _run_bench(args) -> int:
     if args.what == "generator":
         from sand_editor.bench.generator import main as bench_generator
 
