@@ -60,3 +60,11 @@ def test_a_missing_bench_package_is_one_line_naming_the_extra(tmp_path, what, mo
         result, f"the package {package}", f"no {module} here", "pip install 'sand-editor[bench]'"
     )
     assert not plot.exists()
+
+
+@pytest.mark.parametrize("what", ["editor", "vr-link"])
+def test_a_qt_benchmark_without_a_display_says_so_in_one_line(what):
+    # Qt's xcb plugin would abort the process (exit -6) on a QApplication with no X server.
+    hidden = ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM")
+    result = bench(what, env={k: v for k, v in os.environ.items() if k not in hidden})
+    assert_one_line_refusal(result, "no display found", "xvfb-run")
