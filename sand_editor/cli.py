@@ -210,7 +210,14 @@ def _cmd_vr(args) -> int:
 
 def _cmd_bench(args) -> int:
     from sand_editor.bench._optional import MissingPackage
+    from sand_editor.files import OutputError, check_output
 
+    for option, output in (("--json", args.json), ("--plot", args.plot)):
+        try:
+            if output:
+                check_output(output)  # refused now, not after the run
+        except OutputError as error:
+            raise CommandError(f"{option} {error}") from None
     try:
         return _run_bench(args)
     except MissingPackage as error:  # the bench extra is not installed

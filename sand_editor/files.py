@@ -85,6 +85,21 @@ def check_regular_target(path: str | os.PathLike[str]) -> None:
     raise OutputError(path, f"is {kind}; allowed a regular file or a new file name")
 
 
+def check_output(path: str | os.PathLike[str]) -> None:
+    """Raise :class:`OutputError` now for what would make ``write_atomic(path, …,
+    make_folder=True)`` fail later without writing a byte: ``path`` is not a regular file, a
+    folder on the way is a file, or the nearest existing folder cannot be written in.
+
+    For an output written after minutes of work (a benchmark's ``--json``), checked first.
+    """
+    check_regular_target(path)  # a file on the way fails its stat: "Not a directory"
+    folder = os.path.dirname(os.path.abspath(_resolved(path)))
+    while not os.path.isdir(folder):  # missing: write_atomic makes it, inside this one
+        folder = os.path.dirname(folder)
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(path, f"cannot write: {folder} is not writable")
+
+
 def _temporary_prefix(name: str) -> str:
     return f".{name}."
 

@@ -15,11 +15,11 @@ It drives Qt, so it lives with the editor; only the bench command runs it.
 
 from __future__ import annotations
 
-import json
 import statistics
 import sys
 import time
-from pathlib import Path
+
+from sand_editor.bench._report import write_json
 
 READY_TIMEOUT_S = 180.0
 APPLIED_TIMEOUT_S = 60.0
@@ -218,7 +218,7 @@ def main(quick: bool = False, json_path: str | None = None) -> int:
             ],
             "summary": table,
         }
-        Path(json_path).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+        write_json(json_path, document)
     window.model.undo_stack.setClean()
     window.close()
     return 0

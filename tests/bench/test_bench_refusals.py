@@ -4,6 +4,7 @@ not write. Each is one line on stderr and exit status 1, with no table printed."
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -68,3 +69,31 @@ def test_a_qt_benchmark_without_a_display_says_so_in_one_line(what):
     hidden = ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM")
     result = bench(what, env={k: v for k, v in os.environ.items() if k not in hidden})
     assert_one_line_refusal(result, "no display found", "xvfb-run")
+
+
+@pytest.mark.parametrize(
+    ("option", "what", "target", "reason"),
+    [
+        ("--json", "export", "a-folder", "is a folder"),
+        ("--json", "export", "a-file/results.json", "Not a directory"),
+        ("--plot", "generator", "a-folder", "is a folder"),
+    ],
+)
+def test_an_output_that_cannot_be_written_is_refused_before_the_run(
+    tmp_path, option, what, target, reason
+):
+    (tmp_path / "a-folder").mkdir()
+    (tmp_path / "a-file").write_text("kept")
+    result = bench(what, option, str(tmp_path / target))
+    assert_one_line_refusal(result, f"{option} {tmp_path / target}: ", reason)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file", "a-folder"]
+    assert list((tmp_path / "a-folder").iterdir()) == []
+
+
+def test_results_are_written_whole_into_folders_made_for_them(tmp_path):
+    from sand_editor.bench._report import report
+
+    path = tmp_path / "runs" / "first" / "results.json"
+    assert report({"ms": [1.5, 2.0]}, lambda r: "table", lambda r, p: None, str(path)) == 0
+    assert json.loads(path.read_text()) == {"ms": [1.5, 2.0]}
+    assert [p.name for p in path.parent.iterdir()] == ["results.json"]  # no temporary left
