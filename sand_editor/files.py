@@ -113,7 +113,7 @@ def _writer_alive(pid: int) -> bool:
         return True
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
+    except (ProcessLookupError, OverflowError):  # OverflowError: past any process id
         return False
     except PermissionError:
         return True  # another user's live process
@@ -137,7 +137,8 @@ def remove_stray_temporaries(folder: str | os.PathLike[str], *names: str) -> int
         if prefix is None or not entry.endswith(TEMP_SUFFIX):
             continue
         pid_text = entry[len(prefix) : -len(TEMP_SUFFIX)].partition("-")[0]
-        if not pid_text.isdigit() or _writer_alive(int(pid_text)):
+        # isdigit() alone is true of "²", which int() refuses: ASCII digits only.
+        if not (pid_text.isascii() and pid_text.isdigit()) or _writer_alive(int(pid_text)):
             continue
         with contextlib.suppress(OSError):
             os.unlink(os.path.join(folder, entry))

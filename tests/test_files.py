@@ -127,6 +127,15 @@ def test_stray_temporaries_of_dead_writers_go_and_live_ones_stay(tmp_path):
         sleeper.wait()
 
 
+def test_temporaries_named_with_odd_process_ids_never_stop_a_write(tmp_path):
+    # "²".isdigit() is true and int("²") raises; no process has an id past the C long.
+    odd = (tmp_path / ".sand.json.²-0badcafe.tmp", tmp_path / f".sand.json.{10**30}-0badcafe.tmp")
+    for path in odd:
+        path.write_text("not ours to judge" if "²" in path.name else "half")
+    Preset().save(tmp_path / "sand.json")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [odd[0].name, "sand.json"]
+
+
 def test_a_folder_write_clears_every_files_dead_temporaries_listing_the_folder_once(
     tmp_path, monkeypatch
 ):
