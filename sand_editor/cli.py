@@ -11,7 +11,7 @@ from pathlib import Path
 
 from sand_editor.preset import Preset, PresetError
 from sand_editor.resources import bundled_preset
-from sand_editor.untrusted import printable, shorten
+from sand_editor.untrusted import integer, number, printable, shorten
 
 MAX_ERROR_CHARS = 500  # one line on stderr, whatever the input held
 # The viewer's grain texture sizes: the editor's preview sizes (whose tiles it shares) and more.
@@ -123,7 +123,7 @@ def _cmd_export(args) -> int:
 def _size_argument(text: str) -> tuple[int, int]:
     width, sep, height = text.lower().partition("x")
     try:
-        size = (int(width), int(height)) if sep else None
+        size = (integer(width), integer(height)) if sep else None
     except ValueError:
         size = None
     if size is None or not (1 <= size[0] <= 8192 and 1 <= size[1] <= 8192):
@@ -154,7 +154,7 @@ def _cmd_render(args) -> int:
 
 def _render_scale(text: str) -> float:
     try:
-        value = float(text)
+        value = number(text)
     except ValueError:
         value = float("nan")
     if not 0.05 <= value <= 4.0:
@@ -166,7 +166,7 @@ def _day_speed(text: str) -> float:
     from sand_editor.view import MAX_DAY_SPEED
 
     try:
-        value = float(text)
+        value = number(text)
     except ValueError:
         value = float("nan")
     if not 0.0 <= value <= MAX_DAY_SPEED:
@@ -209,6 +209,22 @@ def _cmd_vr(args) -> int:
 
 
 def _cmd_bench(args) -> int:
+    from sand_editor.bench._optional import MissingPackage
+    from sand_editor.files import OutputError, check_output
+
+    for option, output in (("--json", args.json), ("--plot", args.plot)):
+        try:
+            if output:
+                check_output(output)  # refused now, not after the run
+        except OutputError as error:
+            raise CommandError(f"{option} {error}") from None
+    try:
+        return _run_bench(args)
+    except MissingPackage as error:  # the bench extra is not installed
+        raise CommandError(str(error)) from None
+
+
+def _run_bench(args) -> int:
     if args.what == "generator":
         from sand_editor.bench.generator import main as bench_generator
 
@@ -290,7 +306,7 @@ def _parser() -> argparse.ArgumentParser:
 
     bake = sub.add_parser("bake", help="write a preset's grain textures as PNG files")
     bake.add_argument("preset", help="preset file or bundled preset name")
-    bake.add_argument("--size", type=int, default=2048, help="texture edge in pixels (64-4096)")
+    bake.add_argument("--size", type=integer, default=2048, help="texture edge in pixels (64-4096)")
     bake.add_argument("--out", required=True, help="output folder (created if missing)")
     from sand_editor.bake import DEFAULT_TARGET, TARGETS
     from sand_editor.export.images import FORMATS as MAP_FORMATS
@@ -317,8 +333,10 @@ def _parser() -> argparse.ArgumentParser:
     export.add_argument("preset", help="preset file or bundled preset name")
     export.add_argument("--out", required=True, help="the .glb or .gltf file to write")
     export.add_argument("--format", choices=["glb", "gltf"], help="default: from --out's suffix")
-    export.add_argument("--size", type=int, default=1024, help="texture edge in pixels (64-4096)")
-    export.add_argument("--patch", type=float, default=2.0, help="edge of the patch in metres")
+    export.add_argument(
+        "--size", type=integer, default=1024, help="texture edge in pixels (64-4096)"
+    )
+    export.add_argument("--patch", type=number, default=2.0, help="edge of the patch in metres")
     export.add_argument("--sphere", action="store_true", help="put the sand sphere on the patch")
     export.set_defaults(run=_cmd_export)
 
@@ -328,10 +346,10 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("preset", help="preset file or bundled preset name")
     render.add_argument("--out", required=True, help="PNG file to write")
     render.add_argument("--size", type=_size_argument, default=(1280, 720), help="WIDTHxHEIGHT")
-    render.add_argument("--distance", type=float, default=1.0, help="metres from the sand")
+    render.add_argument("--distance", type=number, default=1.0, help="metres from the sand")
     render.add_argument("--time", default="10:00", help="time of day, HH:MM")
     render.add_argument("--mode", choices=MODES, default="full", help="what to show")
-    render.add_argument("--pitch", type=float, default=45.0, help="degrees below the horizon")
+    render.add_argument("--pitch", type=number, default=45.0, help="degrees below the horizon")
     render.add_argument("--sphere", action="store_true", help="put a sand sphere in view")
     render.set_defaults(run=_cmd_render)
 
@@ -339,7 +357,9 @@ def _parser() -> argparse.ArgumentParser:
     vr.add_argument("preset", nargs="?", help="preset file or bundled preset name")
     vr.add_argument("--desktop", action="store_true", help="both eyes side by side in a window")
     vr.add_argument("--control", choices=["stdio"], help="take commands from the editor on stdin")
-    vr.add_argument("--frames", type=int, metavar="N", help="submit this many frames, then exit")
+    vr.add_argument(
+        "--frames", type=integer, metavar="N", help="submit this many frames, then exit"
+    )
     vr.add_argument(
         "--report", metavar="FILE.json", help="write what ran and how fast as JSON to this file"
     )
@@ -363,7 +383,7 @@ def _parser() -> argparse.ArgumentParser:
     vr.add_argument("--mode", choices=MODES, default="full", help="what to show")
     vr.add_argument(
         "--texture-size",
-        type=int,
+        type=integer,
         choices=VR_TEXTURE_SIZES,
         default=1024,
         metavar="N",
@@ -400,7 +420,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
     bench.add_argument(
-        "--sizes", type=int, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"
+        "--sizes", type=integer, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"
     )
     bench.add_argument("--json", help="write the results as JSON to this file")
     bench.add_argument("--plot", help="draw the results into this PNG file")

@@ -85,6 +85,21 @@ def check_regular_target(path: str | os.PathLike[str]) -> None:
     raise OutputError(path, f"is {kind}; allowed a regular file or a new file name")
 
 
+def check_output(path: str | os.PathLike[str]) -> None:
+    """Raise :class:`OutputError` now for what would make ``write_atomic(path, …,
+    make_folder=True)`` fail later without writing a byte: ``path`` is not a regular file, a
+    folder on the way is a file, or the nearest existing folder cannot be written in.
+
+    For an output written after minutes of work (a benchmark's ``--json``), checked first.
+    """
+    check_regular_target(path)  # a file on the way fails its stat: "Not a directory"
+    folder = os.path.dirname(os.path.abspath(_resolved(path)))
+    while not os.path.isdir(folder):  # missing: write_atomic makes it, inside this one
+        folder = os.path.dirname(folder)
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(path, f"cannot write: {folder} is not writable")
+
+
 def _temporary_prefix(name: str) -> str:
     return f".{name}."
 
@@ -98,7 +113,7 @@ def _writer_alive(pid: int) -> bool:
         return True
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
+    except (ProcessLookupError, OverflowError):  # OverflowError: past any process id
         return False
     except PermissionError:
         return True  # another user's live process
@@ -122,7 +137,8 @@ def remove_stray_temporaries(folder: str | os.PathLike[str], *names: str) -> int
         if prefix is None or not entry.endswith(TEMP_SUFFIX):
             continue
         pid_text = entry[len(prefix) : -len(TEMP_SUFFIX)].partition("-")[0]
-        if not pid_text.isdigit() or _writer_alive(int(pid_text)):
+        # isdigit() alone is true of "²", which int() refuses: ASCII digits only.
+        if not (pid_text.isascii() and pid_text.isdigit()) or _writer_alive(int(pid_text)):
             continue
         with contextlib.suppress(OSError):
             os.unlink(os.path.join(folder, entry))

@@ -1,10 +1,12 @@
 """Input from outside (files, the VR link, command lines) kept within bounds: text escaped and
-cut to one line, nesting measured without recursion, numbers bounded before conversion.
+cut to one line, nesting measured without recursion, numbers bounded before conversion and
+written in ASCII digits.
 
 Standard library only: the preset model and the link use it."""
 
 from __future__ import annotations
 
+import re
 import unicodedata
 from collections.abc import Callable
 from typing import Any
@@ -62,3 +64,31 @@ def bounded_number(
         return convert(text)
 
     return parse
+
+
+MAX_NUMBER_CHARS = 40  # no number a person types for us needs more
+# Python's int() and float() also read other scripts' digits ("١٢" is 12), underscores ("1_0")
+# and surrounding Unicode spaces; a number from outside is spelled in ASCII only.
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_NUMBER = re.compile(
+    r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|[+-]?(?:inf|infinity|nan)",
+    re.IGNORECASE,
+)
+
+
+def integer(text: str) -> int:
+    """``text`` as an int: an optional sign and the digits 0-9, at most 40 characters.
+
+    Raises ValueError otherwise (argparse, given it as a ``type``, reports "invalid integer
+    value")."""
+    if len(text) > MAX_NUMBER_CHARS or not _INTEGER.fullmatch(text):
+        raise ValueError(f"{text!r}: expected a whole number in the digits 0-9")
+    return int(text)
+
+
+def number(text: str) -> float:
+    """``text`` as a float, spelled as Python writes one in ASCII (``-1.5``, ``2e-3``, ``.5``,
+    ``inf``, ``nan``), at most 40 characters; raises ValueError otherwise."""
+    if len(text) > MAX_NUMBER_CHARS or not _NUMBER.fullmatch(text):
+        raise ValueError(f"{text!r}: expected a number in the digits 0-9")
+    return float(text)

@@ -15,7 +15,13 @@ from pathlib import Path
 
 import pytest
 
-from sand_editor.files import OutputError, remove_stray_temporaries, write_atomic, write_folder
+from sand_editor.files import (
+    OutputError,
+    check_output,
+    remove_stray_temporaries,
+    write_atomic,
+    write_folder,
+)
 from sand_editor.preset import Preset, PresetError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -37,6 +43,24 @@ def test_a_fifo_or_folder_is_refused_and_left_as_it_was(tmp_path):
     with pytest.raises(OutputError, match="is a folder"):
         write_atomic(folder, b"data")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png", "pipe.png"]
+
+
+def test_check_output_refuses_now_what_a_write_would_refuse_later(tmp_path):
+    check_output(tmp_path / "new" / "deeper" / "results.json")  # folders are made on writing
+    (tmp_path / "a-file").write_text("kept")
+    with pytest.raises(OutputError, match="a-file/results.json: cannot write: Not a directory"):
+        check_output(tmp_path / "a-file" / "results.json")
+    with pytest.raises(OutputError, match="is a folder"):
+        check_output(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write in any folder")
+def test_check_output_refuses_a_folder_it_cannot_write_in(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o555)
+    with pytest.raises(OutputError, match="is not writable"):
+        check_output(locked / "new" / "results.json")
 
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
@@ -101,6 +125,15 @@ def test_stray_temporaries_of_dead_writers_go_and_live_ones_stay(tmp_path):
     finally:
         sleeper.kill()
         sleeper.wait()
+
+
+def test_temporaries_named_with_odd_process_ids_never_stop_a_write(tmp_path):
+    # "²".isdigit() is true and int("²") raises; no process has an id past the C long.
+    odd = (tmp_path / ".sand.json.²-0badcafe.tmp", tmp_path / f".sand.json.{10**30}-0badcafe.tmp")
+    for path in odd:
+        path.write_text("not ours to judge" if "²" in path.name else "half")
+    Preset().save(tmp_path / "sand.json")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [odd[0].name, "sand.json"]
 
 
 def test_a_folder_write_clears_every_files_dead_temporaries_listing_the_folder_once(

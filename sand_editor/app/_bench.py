@@ -225,11 +225,9 @@ def _no_plot(results: dict, path: str) -> None:
 
 
 def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:
-    from sand_editor.app._run import NO_DISPLAY_HINT, missing_display
+    from sand_editor.app._run import require_display
 
-    problem = missing_display()
-    if problem is not None:
-        raise ValueError(f"no display found ({problem}); run it under xvfb-run. {NO_DISPLAY_HINT}")
+    require_display()
     app = QApplication.instance() or QApplication(sys.argv[:1])
     bench = EditorBench(app, quick)
     try:

@@ -15,11 +15,11 @@ It drives Qt, so it lives with the editor; only the bench command runs it.
 
 from __future__ import annotations
 
-import json
 import statistics
 import sys
 import time
-from pathlib import Path
+
+from sand_editor.bench._report import write_json
 
 READY_TIMEOUT_S = 180.0
 APPLIED_TIMEOUT_S = 60.0
@@ -181,6 +181,9 @@ def main(quick: bool = False, json_path: str | None = None) -> int:
     """10 edits of each kind at eye sizes 0.1 and 0.5 of 480×360, with the editor's tiles
     handed over and without (``quick``: 3 edits, 0.1)."""
     edits, render_scales = (3, [0.1]) if quick else (10, [0.1, 0.5])
+    from sand_editor.app._run import require_display
+
+    require_display()
     from PySide6.QtWidgets import QApplication
 
     from sand_editor.app import EditorWindow
@@ -215,7 +218,7 @@ def main(quick: bool = False, json_path: str | None = None) -> int:
             ],
             "summary": table,
         }
-        Path(json_path).write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+        write_json(json_path, document)
     window.model.undo_stack.setClean()
     window.close()
     return 0

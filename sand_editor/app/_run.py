@@ -39,6 +39,15 @@ def missing_display(environ: Mapping[str, str] = os.environ, platform: str = sys
     return "neither DISPLAY nor WAYLAND_DISPLAY is set"
 
 
+def require_display() -> None:
+    """Raise ValueError (the command's one-line error) when Qt would find no display; every
+    command that drives Qt without a window of its own to fall back on (the Qt benchmarks)
+    calls this before it makes a QApplication, which would abort the process."""
+    problem = missing_display()
+    if problem is not None:
+        raise ValueError(f"no display found ({problem}); run it under xvfb-run. {NO_DISPLAY_HINT}")
+
+
 def run_editor(
     preset_path: str | Path | None = None,
     screenshot: str | Path | None = None,

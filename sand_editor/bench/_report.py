@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from pathlib import Path
+
+from sand_editor.files import write_atomic
+
+
+def write_json(path: str, document: dict) -> None:
+    """``document`` as indented JSON, written whole or not at all (folders made as needed)."""
+    write_atomic(path, (json.dumps(document, indent=2) + "\n").encode(), make_folder=True)
 
 
 def report(
@@ -16,7 +22,7 @@ def report(
 ) -> int:
     print(format_table(results))
     if json_path:
-        Path(json_path).write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+        write_json(json_path, results)
     if plot_path:
         plot(results, plot_path)
     return 0

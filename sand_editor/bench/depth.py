@@ -21,6 +21,8 @@ import time
 
 import numpy as np
 
+from sand_editor.bench._optional import optional_module
+
 DISTANCES = (0.05, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0)
 QUICK_DISTANCES = (0.05, 10.0)
 SIZE = (320, 180)
@@ -47,8 +49,7 @@ def supersampled(image: np.ndarray, factor: int) -> np.ndarray:
 
 def flip_error(reference: np.ndarray, test: np.ndarray) -> float:
     """Mean FLIP of two sRGB frames in [0, 1] over their lower half (the ground)."""
-    import flip_evaluator
-
+    flip_evaluator = optional_module("flip_evaluator", "bench depth")
     half = reference.shape[0] // 2
     ref = np.ascontiguousarray(reference[half:], dtype=np.float32)
     tst = np.ascontiguousarray(test[half:], dtype=np.float32)
@@ -175,4 +176,5 @@ def before_after(path: str, distances=(0.05, 10.0)) -> None:
 def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:
     from sand_editor.bench._report import report
 
+    optional_module("flip_evaluator", "bench depth")  # before the run: said at once
     return report(run(quick), format_table, lambda _r, p: before_after(p), json_path, plot_path)

@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from sand_editor.bench._optional import pyplot
 from sand_editor.bench._reference_port import ReferenceParams, ReferencePort, port_oracle
 from sand_editor.bench._report import report
 from sand_editor.generator import check_size, generate, gl_generator
@@ -247,11 +248,7 @@ def format_table(results: dict) -> str:
 
 def plot(results: dict, path: str) -> None:
     """Time against size, and normal error against time, per generator."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, (ax_time, ax_err) = plt.subplots(1, 2, figsize=(11, 4.2))
     sizes = [int(s) for s in results["sizes"]]
     for key, title in ROW_TITLES.items():
@@ -283,4 +280,6 @@ def main(
     json_path: str | None = None,
     plot_path: str | None = None,
 ) -> int:
+    if plot_path:
+        pyplot()  # before the run, so that a missing matplotlib is said at once
     return report(run(quick=quick, sizes=sizes), format_table, plot, json_path, plot_path)

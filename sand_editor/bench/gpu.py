@@ -38,6 +38,7 @@ from sand_editor.generator import check_size
 from sand_editor.gl import standalone_context
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
+from sand_editor.untrusted import integer, number
 from sand_editor.vr._resources import resident_mb
 from sand_editor.vr.desktop import FOV_Y_DEG
 from sand_editor.vr.glwindow import HeadlessContexts
@@ -299,14 +300,14 @@ def main(
 
 
 def _eye_scale(text: str) -> float:
-    value = float(text)
+    value = number(text)
     if not (math.isfinite(value) and 0.001 <= value <= 2.0):
         raise argparse.ArgumentTypeError(f"{text!r}: expected a number from 0.001 to 2")
     return value
 
 
 def _frames(text: str) -> int:
-    value = int(text)
+    value = integer(text)
     if not 1 <= value <= 10000:
         raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number from 1 to 10000")
     return value
@@ -318,7 +319,7 @@ if __name__ == "__main__":
         description="sand-editor bench gpu, with the eye sizes scaled (tests, a first look)",
     )
     parser.add_argument("--quick", action="store_true", help="fewer frames, eyes half size")
-    parser.add_argument("--sizes", type=int, nargs="+", metavar="N", help="generator sizes")
+    parser.add_argument("--sizes", type=integer, nargs="+", metavar="N", help="generator sizes")
     parser.add_argument("--json", help="write the results as JSON to this file")
     parser.add_argument("--eye-scale", type=_eye_scale, metavar="S", help="× each eye size")
     parser.add_argument("--frames", type=_frames, metavar="N", help="timed frames per eye size")

@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from sand_editor.bench._optional import optional_module
 from sand_editor.export.maps import clear_weights
 from sand_editor.generator import generate
 from sand_editor.preset import Preset
@@ -37,6 +38,7 @@ SUN_IRRADIANCE = np.array([3.0, 2.85, 2.6])
 PITCH_DEG = 45.0
 PLANE_HALF_EXTENT = 200.0  # metres: past the frame at every distance measured
 _VARIANT = "scalar_rgb"
+MITSUBA_USERS = "the Mitsuba reference of bench relief and appearance"
 
 
 def neutral(preset: Preset) -> Preset:
@@ -44,9 +46,10 @@ def neutral(preset: Preset) -> Preset:
     return preset.replace(**{"shading.sss": 0.0, "shading.transmission": 0.0})
 
 
-def _mitsuba():
-    import drjit as dr
-    import mitsuba as mi
+def load_mitsuba():
+    """Mitsuba 3 in its ``scalar_rgb`` variant, with d'Eon's sphere BSDF registered."""
+    dr = optional_module("drjit", MITSUBA_USERS)
+    mi = optional_module("mitsuba", MITSUBA_USERS)
 
     if mi.variant() != _VARIANT:
         mi.set_variant(_VARIANT)
@@ -131,7 +134,7 @@ def _bitmap(mi, data: np.ndarray, uv_repeat: float, raw: bool = True) -> dict:
 
 def mitsuba_means(preset: Preset, camera, size: tuple[int, int], spp: int, texture_size=512):
     """Mean HDR luminance of the lower half: (specular, diffuse) from Mitsuba, and seconds."""
-    mi = _mitsuba()
+    mi = load_mitsuba()
     textures = generate(preset, texture_size)
     shading = preset.shading
     repeat = 2.0 * PLANE_HALF_EXTENT * shading.uv_scale

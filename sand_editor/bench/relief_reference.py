@@ -49,6 +49,7 @@ from dataclasses import replace
 import numpy as np
 
 from sand_editor.bench import mitsuba_reference as reference
+from sand_editor.bench._optional import optional_module
 from sand_editor.bench.mitsuba_reference import LUMINANCE, SUN_IRRADIANCE
 from sand_editor.generator import generate
 from sand_editor.generator.noise import linear_to_srgb
@@ -121,8 +122,7 @@ def relief_mesh(textures, uv_scale: float, flat: bool = False, weights=None) -> 
 
 
 def _mitsuba_mesh(mi, arrays: dict, preset, mean_albedo):
-    import drjit as dr
-
+    dr = optional_module("drjit", reference.MITSUBA_USERS)
     positions, faces = arrays["positions"], arrays["faces"]
     mesh = mi.Mesh("grains", len(positions), len(faces), has_vertex_normals=True)
     params = mi.traverse(mesh)
@@ -295,7 +295,7 @@ def run(quick: bool = False) -> tuple[dict, dict]:
     from sand_editor.gl import standalone_context
     from sand_editor.render.material import SandMaterial
 
-    mi = reference._mitsuba()
+    mi = reference.load_mitsuba()
     size = QUICK_SIZE if quick else SIZE
     ctx = standalone_context()
     material = SandMaterial(ctx, TEXTURE_SIZE)

@@ -21,6 +21,7 @@ import sys
 
 import numpy as np
 
+from sand_editor.bench._optional import pyplot
 from sand_editor.bench._report import report
 from sand_editor.bench.frame_cost import material_costs, stereo_cost
 from sand_editor.bench.generator import machine_description
@@ -340,11 +341,7 @@ def format_table(results: dict) -> str:
 
 def plot(results: dict, path: str) -> None:
     """Per distance: glint energy error, per-pixel CV and sparkle share of each approach."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     rows = results["per_distance"]
     distances = [float(d) for d in rows]
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
@@ -372,4 +369,6 @@ def plot(results: dict, path: str) -> None:
 
 
 def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:
+    if plot_path:
+        pyplot()  # before the run, so that a missing matplotlib is said at once
     return report(run(quick=quick), format_table, plot, json_path, plot_path)

@@ -347,5 +347,7 @@ def contact_sheet(path: str, size=(320, 180), distances=(0.3, 3.0, 30.0), time_t
 
 def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:
     from sand_editor.bench._report import report
+    from sand_editor.bench.mitsuba_reference import load_mitsuba
 
+    load_mitsuba()  # before the run, so that a missing Mitsuba is said at once
     return report(run(quick), format_table, lambda _r, p: contact_sheet(p), json_path, plot_path)

@@ -19,6 +19,7 @@ import threading
 import time
 from pathlib import Path
 
+from sand_editor.bench._report import write_json
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
 from sand_editor.vr.link import decode, encode
@@ -98,5 +99,5 @@ def main(quick: bool = False, json_path: str | None = None) -> int:
     print(f"| edit received → on screen (`applied`) | {applied.get('ms', float('nan')):.0f} | |")
     print(f"errors: {report['errors'] or 'none'}; hands: {report['interaction_profiles']}")
     if json_path:
-        Path(json_path).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+        write_json(json_path, report)
     return 0 if applied.get("type") == "applied" and not report["errors"] else 1

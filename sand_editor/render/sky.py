@@ -25,12 +25,14 @@ SKY_DAY = (np.array([0.05, 0.11, 0.25]), np.array([0.18, 0.22, 0.28]))  # (zenit
 SKY_SUNSET = (np.array([0.035, 0.05, 0.10]), np.array([0.36, 0.17, 0.06]))
 SKY_NIGHT = (np.array([0.0006, 0.0010, 0.0030]), np.array([0.0015, 0.0020, 0.0040]))
 
-_TIME = re.compile(r"^\s*(\d{1,2}):(\d{2})\s*$")
+# ASCII only: "\d" would take other scripts' digits ("١٢:٠٠"), and "\s" without re.ASCII any
+# Unicode space.
+_TIME = re.compile(r"\s*([0-9]{1,2}):([0-9]{2})\s*", re.ASCII)
 
 
 def parse_time(text: str) -> float:
     """Hours since midnight from ``"HH:MM"`` (00:00–23:59, or 24:00)."""
-    match = _TIME.match(text) if isinstance(text, str) else None
+    match = _TIME.fullmatch(text) if isinstance(text, str) else None
     if match:
         hours, minutes = int(match.group(1)), int(match.group(2))
         if (hours < 24 and minutes < 60) or (hours, minutes) == (24, 0):

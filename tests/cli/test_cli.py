@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from sand_editor.cli import preset_path
+from sand_editor.cli import main, preset_path
 from sand_editor.preset import PresetError
 from sand_editor.resources import bundled_preset
 
@@ -29,3 +29,36 @@ def test_preset_argument_resolution(tmp_path):
     assert preset_path(str(own)) == own
     with pytest.raises(PresetError, match="no-such"):
         preset_path("no-such")
+
+
+@pytest.mark.parametrize(
+    ("argv", "option"),
+    [
+        (["bake", "paper-default", "--size", "١٠٢٤"], "--size"),
+        (["export", "paper-default", "--size", "1_024"], "--size"),
+        (["export", "paper-default", "--patch", "١.٥"], "--patch"),
+        (["render", "paper-default", "--size", "١٠x١٠"], "--size"),
+        (["render", "paper-default", "--distance", "٢"], "--distance"),
+        (["vr", "--frames", "١"], "--frames"),
+        (["vr", "--render-scale", "٠.٥"], "--render-scale"),
+        (["bench", "generator", "--sizes", "٦٤"], "--sizes"),
+    ],
+)
+def test_numbers_in_other_scripts_digits_are_usage_errors(argv, option, tmp_path, capsys):
+    out = [] if argv[0] in ("vr", "bench") else ["--out", str(tmp_path / "out")]
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv, *out])  # int() and float() would read each of these as a number
+    assert exit_.value.code == 2
+    assert f"argument {option}: " in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["render", "vr"])
+def test_a_time_in_other_scripts_digits_is_one_error_line(command, tmp_path, capsys):
+    out = tmp_path / "frame.png"
+    argv = [command, "paper-default", "--time", "١٢:٠٠"]
+    argv += ["--out", str(out)] if command == "render" else ["--frames", "1"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"sand-editor {command}: error: time of day")
+    assert not out.exists()

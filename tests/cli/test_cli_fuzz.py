@@ -12,7 +12,8 @@ from sand_editor.cli import main
 values = st.one_of(
     st.sampled_from(["0", "-1", "1e999", "nan", "inf", "25:00", "12:60", "10x10", "0x5",
                      "99999x1", "red-desert", "no-such", "a\nb", "\x1b[31m", "", "-", "--",
-                     "glb", "gltf", "unreal", "godot", "exr", "png16"]),
+                     "glb", "gltf", "unreal", "godot", "exr", "png16",
+                     "١٢", "١٢:٠٠", "١٠x١٠", "1_0", " 5", "²"]),
     st.text(max_size=30),
     st.integers().map(str),
     st.floats().map(str),

@@ -67,7 +67,11 @@ def test_parse_time_accepts_24_00():
     assert parse_time("24:00") == 24.0
 
 
-@pytest.mark.parametrize("text", ["24:01", "25:00", "12:60", "12", "noon", "12:5", "-1:00", ""])
+@pytest.mark.parametrize(
+    "text",
+    ["24:01", "25:00", "12:60", "12", "noon", "12:5", "-1:00", "",
+     "١٢:٠٠", "12:٠٠", "１２:００", "\u200312:00"],  # other scripts' digits, a Unicode space
+)  # fmt: skip
 def test_parse_time_names_the_allowed_form(text):
     with pytest.raises(ValueError, match="HH:MM"):
         parse_time(text)
