@@ -87,6 +87,52 @@ def test_desktop_report_and_stereo_screenshot(tmp_path):
     assert image[:20].mean() > 40, "the sky at 16:30 is lit"
 
 
+def _eyes_of(shot: Path, eye: tuple[int, int]) -> list[np.ndarray]:
+    """The two eye images of a screenshot, checked to be a whole PNG of both eyes side by side
+    with the black line between them."""
+    with Image.open(shot) as png:
+        assert png.format == "PNG"
+        png.verify()  # the whole file: a half-written one fails here
+    image = np.asarray(Image.open(shot).convert("RGB")).astype(float)
+    width, height = eye
+    assert image.shape == (height, 2 * width + 4, 3)
+    assert image[:, width : width + 4].max() == 0, "the line between the eyes"
+    return [image[:, :width], image[:, -width:]]
+
+
+@needs_display
+@pytest.mark.parametrize("control", ["none", "stdio"])
+def test_a_screenshot_after_300_frames_leaves_no_gl_error_behind(tmp_path, control):
+    """The eyes are read back from the viewer's own framebuffer. Reading the window's
+    (moderngl's ``ctx.screen``) left GL_INVALID_OPERATION pending, which the next PyOpenGL call
+    raised: the GL object count after frame 50 ended the viewer with status 5."""
+    report_path, shot = tmp_path / "report.json", tmp_path / "shot.png"
+    args = ("--desktop", "--render-scale", "0.1", "--frames", "300", "--screenshot", str(shot),
+            "--report", str(report_path))  # fmt: skip
+    if control == "none":
+        result = _vr(*args)
+        assert result.returncode == 0, result.stderr[-3000:]
+    else:
+        viewer = _Viewer(*args)
+        try:
+            viewer.expect(lambda m: m["type"] == "ready")
+            viewer.send("time", hours=16.5, day_speed=0.0, playing=False)
+            viewer.send("mode", mode="lambert")
+            assert viewer.expect(lambda m: m["type"] == "bye")["status"] == 0, viewer.seen
+            assert viewer.finish() == 0
+        finally:
+            viewer.finish(timeout=5)
+        assert not [m for m in viewer.seen if m["type"] == "error"], viewer.seen
+    report = json.loads(report_path.read_text())
+    assert report["errors"] == []
+    assert report["frames_submitted"] == 300
+    # Both counts were taken: at frame 50 and after the screenshot at the last frame.
+    assert set(report["resources"]) == {"after_warm_up", "end"}
+    for eye in _eyes_of(shot, (48, 36)):
+        assert eye.mean() > 20, "an eye lit by the day, not a black image"
+        assert eye.std() > 3, "an eye that shows a scene, not one colour"
+
+
 def test_no_runtime_gives_exit_status_3_and_says_what_to_install(tmp_path):
     report_path = tmp_path / "report.json"
     result = _vr(
