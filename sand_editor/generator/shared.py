@@ -4,16 +4,22 @@ viewer shows the grains the editor made instead of making them again.
 The maker writes the tile's arrays one after the other into a named segment
 (``SharedTile.create``) and tells the other process its name; the reader copies them out
 (``read_shared``), checking that they are what a generator makes (finite, in range, unit
-normals), and closes its view at once. The maker unlinks the segment once the reader is done.
+normals), and closes the segment at once. The maker unlinks the segment once the reader is done.
 A segment's name comes over the editor ↔ viewer link, so every fault is a ``ValueError``
 naming what is wrong.
+
+The reader never maps a segment: another process can truncate it while it is read, and a read
+of a mapping past the new end is a SIGBUS that kills the reader. It reads the segment's file
+(Linux keeps segments as files in ``/dev/shm``) with ``os.preadv`` into arrays of its own, where
+a shrink is a short read, and opens only a regular file there: a FIFO would block the open.
 """
 
 from __future__ import annotations
 
+import errno
+import os
 import re
-import sys
-from multiprocessing import resource_tracker
+import stat
 from multiprocessing.shared_memory import SharedMemory
 
 import numpy as np
@@ -30,10 +36,11 @@ LAYOUT = (
     ("layer", np.int8, 1),
 )
 SIZES = (64, 128, 256, 512, 1024, 2048)
-# Names Python makes ("psm_" and hex) and others of the kind; never a path.
-NAME_PATTERN = re.compile(r"[A-Za-z0-9_.-]{1,64}")
+# Names Python makes ("psm_" and hex) and others of the kind; never a path, nor "." or "..".
+NAME_PATTERN = re.compile(r"(?!\.)[A-Za-z0-9_.-]{1,64}")
+NAME_RULE = "1-64 letters, digits, '_', '.' or '-', not starting with '.'"
+SEGMENT_FOLDER = "/dev/shm"  # where glibc's and musl's shm_open keep segments
 UNIT_TOLERANCE = 1e-3  # the generator's normals are unit to float precision
-_MADE_HERE: set[str] = set()  # names of the segments this process made and has not unlinked
 
 
 def tile_bytes(size: int) -> int:
@@ -67,7 +74,6 @@ class SharedTile:
             raise ValueError(f"tiles of {self.size}² are not shared; sizes: {SIZES}")
         self._memory = SharedMemory(create=True, size=tile_bytes(self.size))
         self.name = self._memory.name
-        _MADE_HERE.add(self.name)
         try:
             _write(self._memory.buf, textures)
         except BaseException:
@@ -84,23 +90,6 @@ class SharedTile:
             memory.unlink()
         except FileNotFoundError:
             pass
-        _MADE_HERE.discard(memory.name)
-
-
-def _attach(name: str) -> SharedMemory:
-    """Open an existing segment without this process claiming it.
-
-    Python before 3.13 registers every opened segment with the process's resource tracker,
-    which unlinks it when the process exits (cpython#82300) and warns of a leak: the maker's
-    segment would vanish with its reader. 3.13 has ``track=False`` for exactly this. A segment
-    this process made stays registered: its maker unregisters it when unlinking it.
-    """
-    if sys.version_info >= (3, 13):
-        return SharedMemory(name=name, track=False)
-    memory = SharedMemory(name=name)
-    if memory.name not in _MADE_HERE:
-        resource_tracker.unregister(memory._name, "shared_memory")  # noqa: SLF001 - see above
-    return memory
 
 
 def read_shared(name: str, size: int, generation) -> SandTextures:
@@ -110,28 +99,77 @@ def read_shared(name: str, size: int, generation) -> SandTextures:
     Raises
     ------
     ValueError
-        Naming what is wrong: the name, the size, a missing or short segment, or values no
-        generator makes.
+        Naming what is wrong, in one line: the name, the size, a missing, short or shrinking
+        segment, one that is no regular file, or values no generator makes.
     """
     if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
-        raise ValueError(f"a shared tile's name is 1-64 letters, digits, '_', '.' or '-': {name!r}")
+        raise ValueError(f"a shared tile's name is {NAME_RULE}: {name!r}")
     if size not in SIZES:
         raise ValueError(f"a shared tile is {', '.join(map(str, SIZES))} pixels wide, not {size}")
+    needed = tile_bytes(size)
+    fd, length = _open_segment(name)
     try:
-        memory = _attach(name)
+        if length < needed:
+            raise ValueError(f"the shared tile {name!r} has {length} bytes, {needed} needed")
+        buffer = np.empty(needed, np.uint8)
+        _read_into(fd, buffer, name)
+    finally:
+        os.close(fd)
+    # Views into the one buffer read: a copy of each array would cost as much again.
+    arrays = _views(buffer, size)
+    _check(arrays, generation)
+    return SandTextures(**arrays, generation=generation)
+
+
+def _open_segment(name: str) -> tuple[int, int]:
+    """A read-only descriptor of segment ``name`` and its length; only a regular file is
+    opened (looked at first, then opened without following a link or waiting)."""
+    path = os.path.join(SEGMENT_FOLDER, name)
+    try:
+        found = os.lstat(path)
+        if not stat.S_ISREG(found.st_mode):
+            raise ValueError(f"the shared tile {name!r} is {_kind(found.st_mode)}, not a segment")
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
     except FileNotFoundError:
         raise ValueError(f"no shared tile {name!r} (it was removed, or never made)") from None
     except OSError as exc:
-        raise ValueError(f"cannot open the shared tile {name!r}: {exc.strerror}") from None
-    try:
-        needed = tile_bytes(size)
-        if memory.size < needed:
-            raise ValueError(f"the shared tile {name!r} has {memory.size} bytes, {needed} needed")
-        arrays = {key: view.copy() for key, view in _views(memory.buf, size).items()}
-    finally:
-        memory.close()
-    _check(arrays, generation)
-    return SandTextures(**arrays, generation=generation)
+        raise ValueError(f"cannot open the shared tile {name!r}: {_reason(exc)}") from None
+    opened = os.fstat(fd)
+    if (opened.st_dev, opened.st_ino) != (found.st_dev, found.st_ino):
+        os.close(fd)  # replaced between the look and the open: by whom, and with what?
+        raise ValueError(f"the shared tile {name!r} was replaced while it was opened")
+    return fd, opened.st_size
+
+
+def _read_into(fd: int, buffer: np.ndarray, name: str) -> None:
+    """Fill ``buffer`` from the start of the segment; a segment that ends first (it shrank
+    after its length was taken) is a ``ValueError``, not a signal."""
+    view = memoryview(buffer)
+    done = 0
+    while done < len(view):
+        try:
+            got = os.preadv(fd, [view[done:]], done)
+        except OSError as exc:
+            raise ValueError(f"cannot read the shared tile {name!r}: {_reason(exc)}") from None
+        if got == 0:
+            raise ValueError(
+                f"the shared tile {name!r} shrank while it was read: {done} of {len(view)} bytes"
+            )
+        done += got
+
+
+_KINDS = ((stat.S_ISLNK, "a link"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISDIR, "a folder"))
+
+
+def _kind(mode: int) -> str:
+    """What a file that is no segment is, for the message."""
+    return next((kind for test, kind in _KINDS if test(mode)), "a device or socket")
+
+
+def _reason(exc: OSError) -> str:
+    if exc.errno == errno.ELOOP:  # O_NOFOLLOW met a link made after the look
+        return "it is a link"
+    return exc.strerror or str(exc)
 
 
 def _check(arrays: dict[str, np.ndarray], generation) -> None:

@@ -1,11 +1,18 @@
 """Tiles handed between processes in shared memory: exact round trip, the segment outlives its
-readers, and a segment that is missing, short or holds what no generator makes is refused with
-one ``ValueError`` naming why."""
+readers, and a segment that is missing, short, shrinking, no regular file or holds what no
+generator makes is refused with one ``ValueError`` naming why."""
 
 from __future__ import annotations
 
+import json
+import os
+import re
 import subprocess
 import sys
+import threading
+import uuid
+from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,9 +20,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sand_editor.generator import SandTextures
-from sand_editor.generator.shared import LAYOUT, SharedTile, read_shared, tile_bytes
+from sand_editor.generator.shared import (
+    LAYOUT,
+    SEGMENT_FOLDER,
+    SharedTile,
+    read_shared,
+    tile_bytes,
+)
 
 SIZE = 64
+REPO = Path(__file__).resolve().parents[2]
+needs_dev_shm = pytest.mark.skipif(
+    not os.path.isdir(SEGMENT_FOLDER), reason=f"segments are read from {SEGMENT_FOLDER}"
+)
 
 
 @pytest.fixture(scope="module")
@@ -124,3 +141,150 @@ def test_any_name_and_size_give_a_tile_or_one_value_error(name, size):
         assert "\n" not in str(exc)
     else:  # pragma: no cover - no segment of that name exists here
         pytest.fail(f"read a tile named {name!r}")
+
+
+@pytest.fixture(scope="module")
+def reference_tile() -> SandTextures:
+    """A tile of the numpy reference: these tests need no GL."""
+    from sand_editor.generator import generate
+    from sand_editor.preset import Preset
+
+    return generate(Preset(), SIZE, backend="reference")
+
+
+def _tile_bytes(textures: SandTextures) -> bytes:
+    return b"".join(np.ascontiguousarray(getattr(textures, name)).tobytes() for name, *_ in LAYOUT)
+
+
+@contextmanager
+def _segment(data: bytes = b""):
+    """A segment of exactly ``data`` (any length, 0 too), by name; removed after."""
+    name = f"sand_test_{uuid.uuid4().hex}"
+    path = os.path.join(SEGMENT_FOLDER, name)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    try:
+        os.write(fd, data)
+        os.close(fd)
+        yield name
+    finally:
+        os.unlink(path)
+
+
+@needs_dev_shm
+def test_a_fifo_is_refused_unopened_and_left_in_place():
+    """A FIFO would block whoever opens it for reading until a writer comes; an open of it in
+    the viewer's grain thread would stall every new sand."""
+    name = f"sand_test_{uuid.uuid4().hex}"
+    path = os.path.join(SEGMENT_FOLDER, name)
+    os.mkfifo(path, 0o600)
+    outcome = []
+
+    def read():
+        try:
+            read_shared(name, SIZE, None)
+        except ValueError as exc:
+            outcome.append(str(exc))
+
+    try:
+        reader = threading.Thread(target=read, daemon=True)
+        reader.start()
+        reader.join(timeout=20)
+        assert not reader.is_alive(), "read_shared blocked on the FIFO"
+        assert outcome == [f"the shared tile {name!r} is a FIFO, not a segment"]
+        assert os.path.exists(path), "the FIFO was removed"
+    finally:
+        os.unlink(path)
+
+
+@needs_dev_shm
+def test_links_and_folders_are_refused_and_what_a_link_names_is_untouched(reference_tile):
+    data = _tile_bytes(reference_tile)
+    with _segment(data) as target:
+        link = f"sand_test_{uuid.uuid4().hex}"
+        link_path = os.path.join(SEGMENT_FOLDER, link)
+        os.symlink(os.path.join(SEGMENT_FOLDER, target), link_path)
+        try:
+            with pytest.raises(ValueError, match=f"{link}' is a link, not a segment"):
+                read_shared(link, SIZE, None)
+        finally:
+            os.unlink(link_path)
+        read_shared(target, SIZE, None)  # the segment itself is a tile
+    folder = f"sand_test_{uuid.uuid4().hex}"
+    os.mkdir(os.path.join(SEGMENT_FOLDER, folder))
+    try:
+        with pytest.raises(ValueError, match="is a folder, not a segment"):
+            read_shared(folder, SIZE, None)
+    finally:
+        os.rmdir(os.path.join(SEGMENT_FOLDER, folder))
+    for name in (".", "..", ".hidden"):
+        with pytest.raises(ValueError, match="not starting with '.'"):
+            read_shared(name, SIZE, None)
+
+
+# The reader: read_shared many times, counting what each read gave; any other exception, or a
+# signal, ends it with a status that is not 0.
+_READER = """
+import collections, json, sys
+from sand_editor.generator.shared import read_shared
+name, size, reads = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+seen = collections.Counter()
+for _ in range(reads):
+    try:
+        read_shared(name, size, None)
+        seen["tile"] += 1
+    except ValueError as exc:
+        seen[str(exc)] += 1
+print(json.dumps(seen))
+"""
+# What a read of a segment that another process truncates and rewrites may say, and only that.
+_RACE_MESSAGES = re.compile(
+    r"the shared tile '\w+' (has \d+ bytes, \d+ needed"
+    r"|shrank while it was read: \d+ of \d+ bytes)"
+    r"|the shared tile's .*"  # a read of a tile half rewritten: the values are checked
+)
+
+
+@needs_dev_shm
+def test_a_segment_shrinking_while_it_is_read_gives_an_error_never_a_signal(reference_tile):
+    """A thread here truncates the segment and writes it back again and again while another
+    process reads it 3000 times. A reader copying a mapping died of SIGBUS (status -7) within
+    a few dozen reads; reading the file, a shrink is a short read: one ``ValueError``."""
+    data = _tile_bytes(reference_tile)
+    reads = 3000
+    with _segment(data) as name:
+        stop = threading.Event()
+        cycles = []
+
+        def shrink_and_restore():
+            fd = os.open(os.path.join(SEGMENT_FOLDER, name), os.O_RDWR)
+            try:
+                count = 0
+                while not stop.is_set():
+                    os.ftruncate(fd, len(data) // 3 * (count % 3))  # 0, a third, two thirds
+                    os.ftruncate(fd, len(data))
+                    os.pwrite(fd, data, 0)
+                    count += 1
+                cycles.append(count)
+            finally:
+                os.close(fd)
+
+        writer = threading.Thread(target=shrink_and_restore, daemon=True)
+        writer.start()
+        try:
+            result = subprocess.run(
+                [sys.executable, "-c", _READER, name, str(SIZE), str(reads)],
+                capture_output=True, text=True, timeout=300, cwd=REPO,
+                env={**os.environ, "PYTHONPATH": str(REPO)},
+            )  # fmt: skip
+        finally:
+            stop.set()
+            writer.join(timeout=30)
+        read_shared(name, SIZE, None)  # written back whole: a tile again
+    assert result.returncode == 0, f"status {result.returncode}: {result.stderr[-2000:]}"
+    seen = json.loads(result.stdout)
+    assert sum(seen.values()) == reads
+    refusals = {message: n for message, n in seen.items() if message != "tile"}
+    assert all(_RACE_MESSAGES.fullmatch(m) for m in refusals), refusals
+    assert cycles and cycles[0] > 100, "the segment hardly changed while it was read"
+    assert refusals, "no read met a shrunk segment"
+    assert seen.get("tile", 0) > 0, "no read met the whole tile"

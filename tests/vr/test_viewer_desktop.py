@@ -357,7 +357,7 @@ def test_soak_2000_frames_keep_gl_objects_and_memory_flat(tmp_path):
 @needs_display
 def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_path, gl_ctx):
     from sand_editor.generator import generate
-    from sand_editor.generator.shared import SharedTile, read_shared
+    from sand_editor.generator.shared import SEGMENT_FOLDER, SharedTile, read_shared
 
     report_path = tmp_path / "report.json"
     size = 256
@@ -366,6 +366,8 @@ def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_pa
     edit = Preset.from_dict(_edited("shared", **{"generation.seed": 4242}))
     tile = SharedTile(generate(edit, size, ctx=gl_ctx))
     larger = SharedTile(generate(edit, 2 * size, ctx=gl_ctx))
+    fifo = Path(SEGMENT_FOLDER) / f"sand_test_fifo_{os.getpid()}"
+    os.mkfifo(fifo, 0o600)  # opening it to read would wait for a writer: the grains with it
     try:
         viewer.expect(lambda m: m["type"] == "ready")
         grains = {"shm": tile.name, "size": size}
@@ -373,11 +375,14 @@ def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_pa
         applied = viewer.expect(lambda m: m["type"] in ("applied", "error"))
         assert applied["type"] == "applied" and applied["grains"] == "editor", viewer.seen
 
-        # A segment that is gone, or of another size, is said once; the viewer makes the grains.
-        for seq, (name, tile_size, reason) in enumerate(
-            [("psm_gone", size, "no shared tile"), (larger.name, 2 * size, "its tile is 512²")],
-            start=2,
-        ):
+        # A segment that is gone, of another size or no file at all is said once; the viewer
+        # makes the grains.
+        cases = [
+            ("psm_gone", size, "no shared tile"),
+            (larger.name, 2 * size, "its tile is 512²"),
+            (fifo.name, size, "is a FIFO, not a segment"),
+        ]
+        for seq, (name, tile_size, reason) in enumerate(cases, start=2):
             viewer.seen.clear()
             other = edit.replace(**{"generation.seed": 4242 + seq})
             grains = {"shm": name, "size": tile_size}
@@ -396,10 +401,12 @@ def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_pa
         assert viewer.finish() == 0
         # The viewer read the segment and let it be: the editor's to unlink.
         assert read_shared(tile.name, size, edit.generation).size == size
+        assert fifo.exists(), "the viewer removed a FIFO it was pointed at"
     finally:
         viewer.finish(timeout=5)
         tile.close()
         larger.close()
+        fifo.unlink(missing_ok=True)
     report = json.loads(report_path.read_text())
     # After the first sand (made before the first frame), each edit once.
-    assert report["materials_shown_by_grain_source"] == {"viewer": 2, "editor": 1, "kept": 1}
+    assert report["materials_shown_by_grain_source"] == {"viewer": 3, "editor": 1, "kept": 1}
