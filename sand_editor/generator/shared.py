@@ -25,6 +25,7 @@ from multiprocessing.shared_memory import SharedMemory
 import numpy as np
 
 from sand_editor.generator._textures import SandTextures
+from sand_editor.generator.noise import MAX_LAYERS, PROFILE_OFFSET, PROFILE_SCALE, UNIT_8
 
 # (field, dtype, channels), in the order they lie in the segment.
 LAYOUT = (
@@ -41,6 +42,10 @@ NAME_PATTERN = re.compile(r"(?!\.)[A-Za-z0-9_.-]{1,64}")
 NAME_RULE = "1-64 letters, digits, '_', '.' or '-', not starting with '.'"
 SEGMENT_FOLDER = "/dev/shm"  # where glibc's and musl's shm_open keep segments
 UNIT_TOLERANCE = 1e-3  # the generator's normals are unit to float precision
+# A grain's height is its profile 0.08 + 0.8·(√F2 − √F1) with both distances clamped at 1
+# (noise.py), so at most 0.88, and 0 in gaps; the margin is float32 rounding. Anything above is
+# no sand, however finite: the relief and the glints would take it as a slope.
+MAX_HEIGHT = PROFILE_OFFSET + PROFILE_SCALE + 1e-4
 
 
 def tile_bytes(size: int) -> int:
@@ -176,14 +181,29 @@ def _check(arrays: dict[str, np.ndarray], generation) -> None:
     for key in ("albedo", "normal", "height", "glint"):
         if not np.isfinite(arrays[key]).all():
             raise ValueError(f"the shared tile's {key} holds values that are not finite")
-    for key, low, high in (("albedo", 0.0, 1.0), ("glint", 0.0, 1.0), ("height", 0.0, np.inf)):
+    bounds = (("albedo", 0.0, 1.0), ("glint", 0.0, 1.0), ("height", 0.0, MAX_HEIGHT))
+    for key, low, high in bounds:
         values = arrays[key]
         if values.min() < low or values.max() > high:
             raise ValueError(f"the shared tile's {key} leaves [{low:g}, {high:g}]")
-    length = np.linalg.norm(arrays["normal"], axis=-1)
+    normal = arrays["normal"]
+    # Components first: the length of a huge (finite) one would overflow, a warning or, under
+    # np.seterr(all="raise"), an error that is no ValueError.
+    if np.abs(normal).max() > 1.0 + UNIT_TOLERANCE:
+        raise ValueError("the shared tile's normals are not unit vectors")
+    length = np.linalg.norm(normal, axis=-1)
     if np.abs(length - 1.0).max() > UNIT_TOLERANCE:
         raise ValueError("the shared tile's normals are not unit vectors")
-    layers = getattr(generation, "layers", None)
+    layers = getattr(generation, "layers", None) or MAX_LAYERS
     layer = arrays["layer"]
-    if layers is not None and (layer.min() < -1 or layer.max() >= layers):
+    if layer.min() < -1 or layer.max() >= layers:
         raise ValueError(f"the shared tile's layers leave -1 (a gap) to {layers - 1}")
+    # A grain id is the owning grain's 32-bit word (noise.py): 0 in a gap, where nothing owns
+    # the pixel; its top byte is the glint of a top-layer grain.
+    gap = layer < 0
+    if (arrays["grain_id"][gap] != 0).any() or (arrays["height"][gap] != 0).any():
+        raise ValueError("the shared tile's gaps (layer -1) hold a grain id or a height")
+    top = layer == 0
+    glint = (arrays["grain_id"][top] >> np.uint32(24)).astype(np.float32) * np.float32(UNIT_8)
+    if not np.array_equal(glint, arrays["glint"][top]) or (arrays["glint"][~top] != 0).any():
+        raise ValueError("the shared tile's glints are not those of its grain ids")

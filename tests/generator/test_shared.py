@@ -16,12 +16,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from sand_editor.generator import SandTextures
 from sand_editor.generator.shared import (
     LAYOUT,
+    MAX_HEIGHT,
     SEGMENT_FOLDER,
     SharedTile,
     read_shared,
@@ -103,7 +104,10 @@ def _spoilt(textures: SandTextures, name: str, value) -> SandTextures:
         ("albedo", 1.5, r"albedo leaves \[0, 1\]"),
         ("glint", -0.25, r"glint leaves \[0, 1\]"),
         ("height", -1.0, "height leaves"),
+        ("height", 3.4e38, "height leaves"),
+        ("height", 0.9, "height leaves"),
         ("normal", 3.0, "normals are not unit vectors"),
+        ("normal", 3e38, "normals are not unit vectors"),
         ("layer", 99, "layers leave -1"),
     ],
 )
@@ -143,6 +147,26 @@ def test_any_name_and_size_give_a_tile_or_one_value_error(name, size):
         pytest.fail(f"read a tile named {name!r}")
 
 
+def test_the_tiles_of_every_shipped_preset_pass_the_checks(gl_ctx):
+    """The checks refuse nothing a generator makes: a refused tile would be made again by the
+    viewer, on every edit, with an error line each time."""
+    from sand_editor.generator import generate
+    from sand_editor.preset import Preset
+    from sand_editor.resources import presets_dir
+
+    paths = sorted(presets_dir().glob("*.json"))
+    assert paths
+    for path in paths:
+        preset = Preset.load(path)
+        for backend, ctx in (("gl", gl_ctx), ("reference", None)):
+            shared = SharedTile(generate(preset, SIZE, backend=backend, ctx=ctx))
+            try:
+                back = read_shared(shared.name, SIZE, preset.generation)
+            finally:
+                shared.close()
+            assert float(back.height.max()) <= MAX_HEIGHT, (path.stem, backend)
+
+
 @pytest.fixture(scope="module")
 def reference_tile() -> SandTextures:
     """A tile of the numpy reference: these tests need no GL."""
@@ -168,6 +192,38 @@ def _segment(data: bytes = b""):
         yield name
     finally:
         os.unlink(path)
+
+
+def _with_pixel(textures: SandTextures, field: str, where, value) -> SandTextures:
+    """The tile with one pixel where ``where`` (a mask) holds set to ``value``."""
+    arrays = {k: v.copy() for k, v in _arrays(textures).items()}
+    index = tuple(np.argwhere(where)[len(np.argwhere(where)) // 2])
+    arrays[field][index] = value
+    return SandTextures(**arrays, generation=textures.generation)
+
+
+@pytest.mark.parametrize(
+    "field,where,value,reason",
+    [
+        ("grain_id", "gap", 12345, "gaps .* hold a grain id"),
+        ("height", "gap", 0.5, "gaps .* hold a grain id or a height"),
+        ("grain_id", "top", 0xFFFFFFFF, "glints are not those of its grain ids"),
+        ("glint", "lower", 0.5, "glints are not those of its grain ids"),
+        ("layer", "gap", 15, "layers leave -1"),
+    ],
+)
+def test_grain_ids_and_layers_no_generator_makes_are_refused(
+    reference_tile, field, where, value, reason
+):
+    layer = reference_tile.layer
+    mask = {"gap": layer < 0, "top": layer == 0, "lower": layer > 0}[where]
+    assert mask.any(), where
+    shared = SharedTile(_with_pixel(reference_tile, field, mask, value))
+    try:
+        with pytest.raises(ValueError, match=reason):
+            read_shared(shared.name, SIZE, None)  # no generation: up to MAX_LAYERS layers
+    finally:
+        shared.close()
 
 
 @needs_dev_shm
@@ -288,3 +344,56 @@ def test_a_segment_shrinking_while_it_is_read_gives_an_error_never_a_signal(refe
     assert cycles and cycles[0] > 100, "the segment hardly changed while it was read"
     assert refusals, "no read met a shrunk segment"
     assert seen.get("tile", 0) > 0, "no read met the whole tile"
+
+
+_FIELDS = [name for name, *_ in LAYOUT]
+_values = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True, width=32),
+    st.integers(-(2**31), 2**32 - 1),
+)
+
+
+@needs_dev_shm
+@settings(
+    max_examples=300, deadline=None, database=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)  # fmt: skip
+@given(
+    patches=st.lists(
+        st.tuples(st.sampled_from(_FIELDS), st.integers(0, SIZE * SIZE * 3 - 1), _values),
+        max_size=4,
+    ),
+    raw=st.lists(
+        st.tuples(st.integers(0, tile_bytes(SIZE) - 1), st.binary(min_size=1, max_size=16)),
+        max_size=3,
+    ),
+    length=st.one_of(st.none(), st.integers(0, tile_bytes(SIZE) + 64)),
+)
+def test_any_segment_contents_give_a_checked_tile_or_one_value_error(
+    reference_tile, patches, raw, length
+):
+    """A tile with values patched in (any float, any integer, in any field), bytes overwritten
+    anywhere, and any length: what comes back holds only what a generator makes."""
+    arrays = {k: v.copy() for k, v in _arrays(reference_tile).items()}
+    for field, index, value in patches:
+        flat = arrays[field].reshape(-1)
+        with np.errstate(all="ignore"):
+            flat[index % flat.size] = np.array(value).astype(flat.dtype)
+    data = bytearray(b"".join(np.ascontiguousarray(arrays[k]).tobytes() for k in _FIELDS))
+    for offset, chunk in raw:
+        data[offset : offset + len(chunk)] = chunk
+    if length is not None:  # cut short, or zeros after the tile
+        data = data[:length].ljust(length, b"\0")
+    with _segment(data) as name, np.errstate(all="raise"):  # no warning, no other error
+        try:
+            tile = read_shared(name, SIZE, reference_tile.generation)
+        except ValueError as exc:
+            assert "\n" not in str(exc)
+            return
+    for key in ("albedo", "normal", "height", "glint"):
+        assert np.isfinite(getattr(tile, key)).all(), key
+    assert 0 <= tile.height.min() and tile.height.max() <= MAX_HEIGHT
+    assert 0 <= tile.albedo.min() and tile.albedo.max() <= 1
+    assert 0 <= tile.glint.min() and tile.glint.max() <= 1
+    assert -1 <= tile.layer.min() and tile.layer.max() < reference_tile.generation.layers
+    assert (tile.grain_id[tile.layer < 0] == 0).all()
