@@ -9,6 +9,7 @@ import numpy as np
 from PIL import Image
 
 from sand_editor.files import write_atomic
+from sand_editor.vr.errors import GraphicsError
 
 
 def write_png(pixels: np.ndarray, path: Path) -> None:
@@ -20,9 +21,17 @@ def write_png(pixels: np.ndarray, path: Path) -> None:
 
 
 def read_pixels(target, viewport) -> np.ndarray:
-    """(height, width, 3) uint8 of a framebuffer's viewport, rows top-down."""
+    """(height, width, 3) uint8 of a framebuffer's viewport, rows top-down.
+
+    ``target`` is a framebuffer the viewer made (not the window's, ``ctx.screen``, which
+    moderngl cannot read without a GL error). An error the read leaves is raised here, as a
+    ``GraphicsError``, instead of by whichever GL call comes next.
+    """
     x, y, width, height = viewport
     data = target.read(viewport=(x, y, width, height), components=3, alignment=1)
+    error = target.ctx.error
+    if error != "GL_NO_ERROR":
+        raise GraphicsError(f"reading the eyes back for a screenshot failed: {error}")
     return np.frombuffer(data, np.uint8).reshape(height, width, 3)[::-1]
 
 

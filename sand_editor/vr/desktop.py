@@ -60,12 +60,19 @@ class SimulatedSession:
 
 
 class DesktopBackend(SimulatedSession):
-    """``windows`` is a visible ``GLWindows`` two eyes wide."""
+    """``windows`` is a visible ``GLWindows`` two eyes wide.
+
+    The eyes are drawn side by side into a framebuffer of the viewer's own, the window's size,
+    and copied to the window at the end of each frame. They are never drawn into or read from
+    the window's framebuffer: moderngl reads any framebuffer by selecting its colour attachment
+    0 (``glReadBuffer``), which the window's default framebuffer does not have, so a screenshot
+    of ``ctx.screen`` left GL_INVALID_OPERATION pending for whatever GL call came next.
+    """
 
     name = "desktop"
     floor_level = True
     reference_space = "STAGE"  # the floor is y = 0, as in a headset's STAGE space
-    swapchain_format = "window framebuffer (sRGB-encoded bytes)"
+    swapchain_format = "RGBA8 texture, 24-bit depth renderbuffer, copied to the window"
 
     def __init__(self, windows, size: tuple[int, int]) -> None:
         self.windows = windows
@@ -84,6 +91,13 @@ class DesktopBackend(SimulatedSession):
         self._cursor = None
         self._last = time.perf_counter()
         self._next_frame = self._last
+        both = (2 * size[0], size[1])
+        self._colour = self.ctx.texture(both, 4)
+        self._depth = self.ctx.depth_renderbuffer(both)
+        self._eyes = self.ctx.framebuffer([self._colour], self._depth)
+        # The colour alone for the copy: a blit of depth too would need the window's depth
+        # format, which is the driver's choice.
+        self._shown = self.ctx.framebuffer([self._colour])
 
     # ---- session -------------------------------------------------------------------------
 
@@ -122,12 +136,15 @@ class DesktopBackend(SimulatedSession):
     @contextmanager
     def eye_target(self, index: int):
         width, height = self.size
-        yield self.ctx.screen, (index * width, 0, width, height)
+        yield self._eyes, (index * width, 0, width, height)
 
     def end_frame(self, frame: Frame, rendered: bool) -> None:
+        self.ctx.copy_framebuffer(self.ctx.screen, self._shown)
         self.glfw.swap_buffers(self.windows.window)
 
     def close(self) -> None:
+        for gl_object in (self._shown, self._eyes, self._depth, self._colour):
+            gl_object.release()
         self.windows.close()
 
     # ---- keyboard and mouse ----------------------------------------------------------------

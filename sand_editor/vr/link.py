@@ -21,7 +21,7 @@ import sys
 import threading
 from typing import IO, Any
 
-from sand_editor.generator.shared import NAME_PATTERN
+from sand_editor.generator.shared import NAME_PATTERN, NAME_RULE
 from sand_editor.generator.shared import SIZES as SHARED_SIZES
 from sand_editor.untrusted import bounded_number, deeper_than, printable, shorten
 from sand_editor.view import MAX_DAY_SPEED
@@ -114,7 +114,7 @@ def check_grains(message: dict) -> tuple[str, int] | None:
     name, size = grains.get("shm"), grains.get("size")
     if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
         shown = shorten(repr(name), 40) if isinstance(name, str) else type(name).__name__
-        raise LinkError(f"grains.shm must be 1-64 letters, digits, '_', '.' or '-', got {shown}")
+        raise LinkError(f"grains.shm must be {NAME_RULE}, got {shown}")
     if isinstance(size, bool) or size not in SHARED_SIZES:
         scalar = isinstance(size, int | float | str)
         shown = shorten(repr(size), 40) if scalar else type(size).__name__

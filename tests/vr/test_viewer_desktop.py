@@ -87,6 +87,52 @@ def test_desktop_report_and_stereo_screenshot(tmp_path):
     assert image[:20].mean() > 40, "the sky at 16:30 is lit"
 
 
+def _eyes_of(shot: Path, eye: tuple[int, int]) -> list[np.ndarray]:
+    """The two eye images of a screenshot, checked to be a whole PNG of both eyes side by side
+    with the black line between them."""
+    with Image.open(shot) as png:
+        assert png.format == "PNG"
+        png.verify()  # the whole file: a half-written one fails here
+    image = np.asarray(Image.open(shot).convert("RGB")).astype(float)
+    width, height = eye
+    assert image.shape == (height, 2 * width + 4, 3)
+    assert image[:, width : width + 4].max() == 0, "the line between the eyes"
+    return [image[:, :width], image[:, -width:]]
+
+
+@needs_display
+@pytest.mark.parametrize("control", ["none", "stdio"])
+def test_a_screenshot_after_300_frames_leaves_no_gl_error_behind(tmp_path, control):
+    """The eyes are read back from the viewer's own framebuffer. Reading the window's
+    (moderngl's ``ctx.screen``) left GL_INVALID_OPERATION pending, which the next PyOpenGL call
+    raised: the GL object count after frame 50 ended the viewer with status 5."""
+    report_path, shot = tmp_path / "report.json", tmp_path / "shot.png"
+    args = ("--desktop", "--render-scale", "0.1", "--frames", "300", "--screenshot", str(shot),
+            "--report", str(report_path))  # fmt: skip
+    if control == "none":
+        result = _vr(*args)
+        assert result.returncode == 0, result.stderr[-3000:]
+    else:
+        viewer = _Viewer(*args)
+        try:
+            viewer.expect(lambda m: m["type"] == "ready")
+            viewer.send("time", hours=16.5, day_speed=0.0, playing=False)
+            viewer.send("mode", mode="lambert")
+            assert viewer.expect(lambda m: m["type"] == "bye")["status"] == 0, viewer.seen
+            assert viewer.finish() == 0
+        finally:
+            viewer.finish(timeout=5)
+        assert not [m for m in viewer.seen if m["type"] == "error"], viewer.seen
+    report = json.loads(report_path.read_text())
+    assert report["errors"] == []
+    assert report["frames_submitted"] == 300
+    # Both counts were taken: at frame 50 and after the screenshot at the last frame.
+    assert set(report["resources"]) == {"after_warm_up", "end"}
+    for eye in _eyes_of(shot, (48, 36)):
+        assert eye.mean() > 20, "an eye lit by the day, not a black image"
+        assert eye.std() > 3, "an eye that shows a scene, not one colour"
+
+
 def test_no_runtime_gives_exit_status_3_and_says_what_to_install(tmp_path):
     report_path = tmp_path / "report.json"
     result = _vr(
@@ -311,7 +357,7 @@ def test_soak_2000_frames_keep_gl_objects_and_memory_flat(tmp_path):
 @needs_display
 def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_path, gl_ctx):
     from sand_editor.generator import generate
-    from sand_editor.generator.shared import SharedTile, read_shared
+    from sand_editor.generator.shared import SEGMENT_FOLDER, SharedTile, read_shared
 
     report_path = tmp_path / "report.json"
     size = 256
@@ -320,6 +366,8 @@ def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_pa
     edit = Preset.from_dict(_edited("shared", **{"generation.seed": 4242}))
     tile = SharedTile(generate(edit, size, ctx=gl_ctx))
     larger = SharedTile(generate(edit, 2 * size, ctx=gl_ctx))
+    fifo = Path(SEGMENT_FOLDER) / f"sand_test_fifo_{os.getpid()}"
+    os.mkfifo(fifo, 0o600)  # opening it to read would wait for a writer: the grains with it
     try:
         viewer.expect(lambda m: m["type"] == "ready")
         grains = {"shm": tile.name, "size": size}
@@ -327,11 +375,14 @@ def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_pa
         applied = viewer.expect(lambda m: m["type"] in ("applied", "error"))
         assert applied["type"] == "applied" and applied["grains"] == "editor", viewer.seen
 
-        # A segment that is gone, or of another size, is said once; the viewer makes the grains.
-        for seq, (name, tile_size, reason) in enumerate(
-            [("psm_gone", size, "no shared tile"), (larger.name, 2 * size, "its tile is 512²")],
-            start=2,
-        ):
+        # A segment that is gone, of another size or no file at all is said once; the viewer
+        # makes the grains.
+        cases = [
+            ("psm_gone", size, "no shared tile"),
+            (larger.name, 2 * size, "its tile is 512²"),
+            (fifo.name, size, "is a FIFO, not a segment"),
+        ]
+        for seq, (name, tile_size, reason) in enumerate(cases, start=2):
             viewer.seen.clear()
             other = edit.replace(**{"generation.seed": 4242 + seq})
             grains = {"shm": name, "size": tile_size}
@@ -350,10 +401,12 @@ def test_the_editors_tile_in_shared_memory_is_shown_instead_of_made_again(tmp_pa
         assert viewer.finish() == 0
         # The viewer read the segment and let it be: the editor's to unlink.
         assert read_shared(tile.name, size, edit.generation).size == size
+        assert fifo.exists(), "the viewer removed a FIFO it was pointed at"
     finally:
         viewer.finish(timeout=5)
         tile.close()
         larger.close()
+        fifo.unlink(missing_ok=True)
     report = json.loads(report_path.read_text())
     # After the first sand (made before the first frame), each edit once.
-    assert report["materials_shown_by_grain_source"] == {"viewer": 2, "editor": 1, "kept": 1}
+    assert report["materials_shown_by_grain_source"] == {"viewer": 3, "editor": 1, "kept": 1}
