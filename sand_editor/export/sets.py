@@ -18,6 +18,7 @@ import numpy as np
 
 from sand_editor.export.images import FORMATS, encode, linear_to_srgb8
 from sand_editor.export.maps import MaterialMaps, image_rows
+from sand_editor.files import file_stem
 from sand_editor.preset import Preset
 
 TARGETS = ("gltf", "unity-hdrp", "unreal", "godot")
@@ -154,9 +155,12 @@ def _encode_map(maps: MaterialMaps, entry: _Map, fmt: str) -> tuple[bytes, str]:
 def texture_set(
     preset: Preset, maps: MaterialMaps, target: str, formats: MapFormats, stem: str
 ) -> dict[str, bytes]:
-    """The files of a target's set by name, README last."""
+    """The files of a target's set by name, README last; the maps' names start with ``stem``
+    made a safe file stem (:func:`~sand_editor.files.file_stem`: it is the preset's name, which
+    a downloaded file may carry)."""
     if target not in _SETS:
         raise ValueError(f"unknown target {target!r}; allowed {', '.join(TARGETS)}")
+    stem = file_stem(stem)
     entries, how = _SETS[target]
     files: dict[str, bytes] = {}
     lines = []
