@@ -93,8 +93,9 @@ def _cmd_bake(args) -> int:
     top = stats["coverage_per_layer"][0] if stats["coverage_per_layer"] else 0.0
     kind = "" if args.target == DEFAULT_TARGET else f" ({args.target} set)"
     print(
-        f"baked {preset.name}{kind} at {args.size}² into {args.out}: top-layer coverage "
-        f"{top:.3f}, gap fraction {stats['gap_fraction']:.3f}, {stats['grain_count']} grains"
+        f"baked {preset.name}{kind} at {args.size}² into {printable(args.out)}: top-layer "
+        f"coverage {top:.3f}, gap fraction {stats['gap_fraction']:.3f}, "
+        f"{stats['grain_count']} grains"
     )
     return 0
 
@@ -115,7 +116,7 @@ def _cmd_export(args) -> int:
     count = len(record["files"])
     print(
         f"exported {preset.name} as {record['format']} ({count} file{'s' if count > 1 else ''}, "
-        f"{record['bytes'] / 1e6:.1f} MB) to {args.out}"
+        f"{record['bytes'] / 1e6:.1f} MB) to {printable(args.out)}"
     )
     return 0
 
@@ -147,7 +148,7 @@ def _cmd_render(args) -> int:
     )
     print(
         f"rendered {preset.name} ({args.mode}) at {args.distance} m, {args.time}, "
-        f"{args.size[0]}×{args.size[1]} into {args.out} in {stats['ms']:.0f} ms"
+        f"{args.size[0]}×{args.size[1]} into {printable(args.out)} in {stats['ms']:.0f} ms"
     )
     return 0
 

@@ -11,6 +11,9 @@ that belong together, such as a bake):
   names carry the writer's process id) are removed by the next write into that folder;
 - a folder's files are written under an exclusive lock on the folder, so two bakes into one
   folder never mix their files;
+- a folder's files are plain names inside it: a name with a separator, ``..`` or NUL is refused
+  before anything is written, and :func:`file_stem` makes names from outside (a preset's name)
+  into such names;
 - every failure is an :class:`OutputError` naming the file and the reason.
 
 Standard library only: the preset package writes its files through here.
@@ -21,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import secrets
 import stat
 from collections.abc import Iterator, Mapping
@@ -33,6 +37,16 @@ except ImportError:  # pragma: no cover - not on Linux
 
 TEMP_SUFFIX = ".tmp"
 NEW_FILE_MODE = 0o644  # outputs are for sharing; a replaced file keeps its own mode
+# File names end at 255 bytes on most file systems; a stem gets a suffix ("_BaseColor.png") and,
+# while written, a temporary name around it (".{name}.{pid}-{token}.tmp").
+MAX_STEM_BYTES = 100
+DEFAULT_STEM = "sand"
+# Separators, and the characters Windows reserves in names.
+_NOT_IN_NAMES = frozenset('/\\<>:"|?*')
+_WINDOWS_DEVICES = frozenset(
+    {"CON", "PRN", "AUX", "NUL", *(f"{port}{i}" for port in ("COM", "LPT") for i in range(1, 10))}
+)
+_DOT_RUNS = re.compile(r"\.{2,}")
 
 _KINDS = (
     (stat.S_ISDIR, "a folder"),
@@ -98,6 +112,46 @@ def check_output(path: str | os.PathLike[str]) -> None:
         folder = os.path.dirname(folder)
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(path, f"cannot write: {folder} is not writable")
+
+
+def file_stem(text: str) -> str:
+    """A file stem made from ``text`` (a preset's name, which a downloaded file may carry) that
+    names one file in a folder on any system.
+
+    Separators, the characters Windows reserves (``<>:"|?*``) and control, format and other
+    non-printable characters become ``_``; runs of dots become one, and dots and spaces at
+    either end go (no ``..``, no hidden file); a Windows device name (``CON``, ``LPT1``) gets a
+    ``_`` before it; the stem is cut to :data:`MAX_STEM_BYTES` bytes of UTF-8, and an empty one
+    is :data:`DEFAULT_STEM`.
+    """
+    kept = "".join(
+        "_" if char in _NOT_IN_NAMES or not (char.isprintable() or char == " ") else char
+        for char in text
+    )
+    kept = _DOT_RUNS.sub(".", kept).strip(" .")
+    if kept.split(".")[0].rstrip().upper() in _WINDOWS_DEVICES:
+        kept = f"_{kept}"
+    kept = kept.encode("utf-8")[:MAX_STEM_BYTES].decode("utf-8", "ignore").rstrip(" .")
+    return kept or DEFAULT_STEM
+
+
+def check_file_name(folder: str | os.PathLike[str], name: str) -> None:
+    """Raise :class:`OutputError` unless ``name`` names a file directly inside ``folder``: no
+    separator, not ``.`` or ``..``, no NUL."""
+    base = os.path.abspath(folder)
+    inside = os.path.dirname(os.path.abspath(os.path.join(base, name))) == base
+    separators = {os.sep, os.altsep} - {None}
+    if (
+        not inside
+        or name in ("", ".", "..")
+        or "\0" in name
+        or any(separator in name for separator in separators)
+    ):
+        raise OutputError(
+            folder,
+            f"refused to write {name!r}: allowed a file name inside this folder, without "
+            "separators, '..' or NUL",
+        )
 
 
 def _temporary_prefix(name: str) -> str:
@@ -238,6 +292,8 @@ def write_folder(folder: str | os.PathLike[str], files: Mapping[str, bytes]) -> 
     """
     shown = Path(folder)
     target = _resolved(folder)
+    for name in files:
+        check_file_name(shown, name)
     try:
         os.makedirs(target, exist_ok=True)
     except OSError as error:

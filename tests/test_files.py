@@ -14,10 +14,14 @@ import time
 from pathlib import Path
 
 import pytest
+from hypothesis import example, given
+from hypothesis import strategies as st
 
 from sand_editor.files import (
+    MAX_STEM_BYTES,
     OutputError,
     check_output,
+    file_stem,
     remove_stray_temporaries,
     write_atomic,
     write_folder,
@@ -231,3 +235,41 @@ def test_preset_save_over_a_device_is_a_preset_error(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(PresetError, match="sand.json: is a FIFO"):
         Preset().save(fifo)
+
+
+@given(st.text(max_size=300))
+@example("../x")
+@example("/tmp/x")
+@example("..")
+@example(".hidden")
+@example("a\nb\x1b[2J\u202e\x00")
+@example("con.txt")
+@example("LPT9")
+@example("é" * 200)
+@example(" . ")
+def test_a_file_stem_names_one_plain_file_whatever_the_text(text):
+    stem = file_stem(text)
+    assert stem and stem == stem.strip(" .")
+    assert not set(stem) & set('/\\<>:"|?*'), stem
+    assert ".." not in stem and not stem.startswith(".")
+    assert all(char.isprintable() for char in stem), repr(stem)
+    assert len(stem.encode("utf-8")) <= MAX_STEM_BYTES
+    assert stem.split(".")[0].upper() not in {"CON", "PRN", "AUX", "NUL", "COM1", "LPT9"}
+    assert file_stem(stem) == stem, "a safe stem is kept as it is"
+
+
+def test_a_file_stem_keeps_a_plain_name_and_readable_unicode():
+    assert file_stem("red-desert") == "red-desert"
+    assert file_stem("Sable d'Érg Chebbi 2") == "Sable d'Érg Chebbi 2"
+    assert file_stem("../../ESCAPED_rel") == "_._ESCAPED_rel"
+    assert file_stem("/tmp/ESCAPED_abs") == "_tmp_ESCAPED_abs"
+    assert file_stem("...") == "sand"
+
+
+@pytest.mark.parametrize("name", ["../a.png", "/tmp/a.png", "sub/a.png", "..", ".", "", "a\0b"])
+def test_write_folder_refuses_a_name_outside_the_folder_and_writes_nothing(tmp_path, name):
+    out = tmp_path / "deep" / "out"
+    with pytest.raises(OutputError, match="allowed a file name inside this folder") as raised:
+        write_folder(out, {"ok.png": b"fine", name: b"escaped"})
+    assert "\n" not in str(raised.value)
+    assert list(tmp_path.iterdir()) == [], "nothing made, not even the folder"

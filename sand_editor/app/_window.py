@@ -132,7 +132,7 @@ class EditorWindow(WindowFiles, QMainWindow):
         return self.save_to(self._path)
 
     def save_as(self) -> bool:
-        start = str(self._path or Path.home() / f"{self.model.preset.name}.json")
+        start = str(self._path) if self._path else self.suggested_file(Path.home(), ".json")
         chosen, _ = QFileDialog.getSaveFileName(self, "Save preset as", start, _FILE_FILTER)
         if not chosen:
             return False

@@ -10,7 +10,7 @@ from PySide6.QtWidgets import QFileDialog, QInputDialog, QMessageBox
 
 from sand_editor.app._bake import BAKE_SIZES, DEFAULT_BAKE_SIZE, BakeDialog, BakeJob
 from sand_editor.export.run import DEFAULT_TEXTURE_SIZE as EXPORT_SIZE
-from sand_editor.files import OutputError, write_atomic
+from sand_editor.files import OutputError, file_stem, write_atomic
 from sand_editor.preset import GLTF_SUFFIXES
 
 _IMAGE_FILTER = "PNG images (*.png)"
@@ -78,10 +78,15 @@ class WindowFiles:
         if ok:
             self.bake_to(Path(folder), int(size))
 
+    def suggested_file(self, folder: Path, suffix: str) -> str:
+        """The file a save dialog offers: the preset's name as a file stem (a name from a
+        downloaded file may hold separators or ``..``), in ``folder``."""
+        return str(folder / f"{file_stem(self.model.preset.name)}{suffix}")
+
     def _ask_export(self) -> None:
-        start = str((self._path.parent if self._path else Path.cwd()) / self.model.preset.name)
+        start = self.suggested_file(self._path.parent if self._path else Path.cwd(), ".glb")
         chosen, _ = QFileDialog.getSaveFileName(
-            self, "Export glTF", start + ".glb", "glTF binary (*.glb);;glTF with files (*.gltf)"
+            self, "Export glTF", start, "glTF binary (*.glb);;glTF with files (*.gltf)"
         )
         if not chosen:
             return
@@ -122,7 +127,7 @@ class WindowFiles:
             self.statusBar().showMessage(f"{stopped} cancelled; nothing written", STATUS_MESSAGE_MS)
 
     def _ask_screenshot(self) -> None:
-        start = str(Path.cwd() / f"{self.model.preset.name}.png")
+        start = self.suggested_file(Path.cwd(), ".png")
         chosen, _ = QFileDialog.getSaveFileName(self, "Save screenshot", start, _IMAGE_FILTER)
         if chosen:
             path = Path(chosen) if Path(chosen).suffix else Path(chosen).with_suffix(".png")

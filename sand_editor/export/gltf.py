@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import pygltflib as g
 
-from sand_editor.export.images import encode_png, linear_to_srgb8
-from sand_editor.export.maps import MaterialMaps, image_rows
-from sand_editor.export.sets import ENCODE_THREADS
+from sand_editor.export.images import encode_bands
+from sand_editor.export.maps import MaterialMaps, image_band
+from sand_editor.export.sets import ENCODE_THREADS, base_color_image, normal_image, orm_image
 from sand_editor.preset import GLTF_EXTRAS_KEY, Preset
 
 FORMATS = ("glb", "gltf")
@@ -42,19 +42,29 @@ class PatchOptions:
     sphere: bool = False  # the sand sphere, radius a fifth of the patch, resting on it
 
 
-def texture_images(maps: MaterialMaps) -> dict[str, bytes]:
-    """The four images of the material, PNG, by role (encoded a map per core)."""
-    orm = np.stack([maps.occlusion, maps.roughness, np.zeros_like(maps.roughness)], axis=-1)
+def _specular_image(maps: MaterialMaps) -> np.ndarray:
+    # KHR_materials_specular reads the strength from the alpha; the colour stays white.
     ones = np.ones((*maps.specular.shape, 3), np.float32)
-    arrays = {
-        "basecolor": lambda: linear_to_srgb8(maps.base_color),
-        "normal": lambda: maps.normal * 0.5 + 0.5,
-        "orm": lambda: orm,
-        "specular": lambda: np.concatenate([ones, maps.specular[..., None]], axis=-1),
-    }
+    return np.concatenate([ones, maps.specular[..., None]], axis=-1)
+
+
+_IMAGES = {
+    "basecolor": base_color_image,
+    "normal": normal_image(1.0),
+    "orm": orm_image,
+    "specular": _specular_image,
+}
+
+
+def texture_images(maps: MaterialMaps) -> dict[str, bytes]:
+    """The four images of the material, PNG, by role (encoded a map per core, each a band of
+    rows at a time)."""
+
+    def encoded(make) -> bytes:
+        return encode_bands(image_band(maps, make), maps.size, "png8")[0]
+
     with ThreadPoolExecutor(max_workers=ENCODE_THREADS) as pool:
-        encoded = pool.map(lambda make: encode_png(image_rows(make()), 8), arrays.values())
-        return dict(zip(arrays, encoded, strict=True))
+        return dict(zip(_IMAGES, pool.map(encoded, _IMAGES.values()), strict=True))
 
 
 def plane_mesh(size_m: float) -> dict[str, np.ndarray]:

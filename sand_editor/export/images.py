@@ -24,11 +24,13 @@ import functools
 import io
 import os
 import tempfile
+from collections.abc import Callable
 
 import numpy as np
 
 FORMATS = ("png8", "png16", "exr")
 HALF_MAX = 65504.0  # the largest finite half float
+BAND_ROWS = 256  # rows per band of encode_bands
 ZLIB_LEVEL = 1
 
 _EXTENSIONS = {"png8": ".png", "png16": ".png", "exr": ".exr"}
@@ -195,6 +197,29 @@ def encode(values: np.ndarray, fmt: str, half: bool = False) -> tuple[bytes, str
     if fmt == "exr":
         return encode_exr(values, half=half), _EXTENSIONS[fmt]
     raise ValueError(f"unknown image format {fmt!r}; the formats are {', '.join(FORMATS)}")
+
+
+def encode_bands(
+    band: Callable[[slice], np.ndarray], height: int, fmt: str, half: bool = False
+) -> tuple[bytes, str]:
+    """:func:`encode` of an image made :data:`BAND_ROWS` rows at a time: ``band(rows)`` gives
+    the values of the image's rows ``rows`` (top first). Each band is quantised (or made the
+    EXR's float32) as it comes, so that only the file's samples are held whole, not the floats
+    (nor :func:`quantise`'s float64) of the whole image."""
+    samples = None
+    for start in range(0, height, BAND_ROWS):
+        values = band(slice(start, min(start + BAND_ROWS, height)))
+        if fmt in ("png8", "png16"):
+            values = quantise(values, 8 if fmt == "png8" else 16)
+        elif fmt == "exr":
+            with np.errstate(over="ignore"):  # encode_exr names values beyond float32
+                values = np.asarray(values, dtype=np.float32)
+        else:
+            raise ValueError(f"unknown image format {fmt!r}; the formats are {', '.join(FORMATS)}")
+        if samples is None:
+            samples = np.empty((height, *values.shape[1:]), values.dtype)
+        samples[start : start + len(values)] = values
+    return encode(samples, fmt, half=half)
 
 
 def decode(data: bytes) -> np.ndarray:

@@ -35,11 +35,20 @@ from sand_editor.render.far_brdf import lambert_equivalent_albedo
 
 PROFILE_TOP = PROFILE_OFFSET + PROFILE_SCALE  # the tallest a grain's height gets
 OCCLUSION_STRENGTH = 1.0
+# Rows per band where a map is made a band at a time (even, for the half-resolution mean):
+# whole-tile temporaries in float64 would take gigabytes at 4096².
+BAND_ROWS = 256
+
+
+def _bands(rows: int):
+    return (slice(start, min(start + BAND_ROWS, rows)) for start in range(0, rows, BAND_ROWS))
 
 
 @dataclass(frozen=True)
 class MaterialMaps:
-    """One tile's maps, float32, rows as the generator's (row 0 at v = 0)."""
+    """One tile's maps, float32, rows as the generator's (row 0 at v = 0). ``normal`` may be
+    the grain textures' own array, and ``roughness``, one value for the tile, a read-only
+    broadcast of it."""
 
     base_color: np.ndarray  # (n, n, 3) linear
     normal: np.ndarray  # (n, n, 3) unit, tangent space, +z out of the surface, +y along +v
@@ -53,15 +62,25 @@ class MaterialMaps:
     def size(self) -> int:
         return int(self.base_color.shape[0])
 
+    def rows(self, band: slice) -> MaterialMaps:
+        """These maps' rows ``band`` (views, no copies)."""
+        return MaterialMaps(
+            self.base_color[band], self.normal[band], self.roughness[band], self.specular[band],
+            self.occlusion[band], self.height[band], self.albedo_scale,
+        )  # fmt: skip
+
 
 def clear_weights(preset: Preset, textures: SandTextures) -> np.ndarray:
     """Each texel's share of mirroring facets: the light its layer gets on a clear grain."""
     constants = NoiseConstants.from_generation(preset.generation)
-    glint_value = (textures.grain_id >> np.uint32(24)).astype(np.float64) / 256.0
-    owned = textures.layer >= 0
-    light = constants.layer_light[np.clip(textures.layer, 0, None).astype(np.int64)]
-    clear = owned & (glint_value < preset.shading.clear_grains)
-    return np.where(clear, light, 0.0).astype(np.float32)
+    weights = np.empty(textures.layer.shape, np.float32)
+    for band in _bands(len(weights)):
+        layer = textures.layer[band]
+        glint_value = (textures.grain_id[band] >> np.uint32(24)).astype(np.float64) / 256.0
+        light = constants.layer_light[np.clip(layer, 0, None).astype(np.int64)]
+        clear = (layer >= 0) & (glint_value < preset.shading.clear_grains)
+        weights[band] = np.where(clear, light, 0.0)
+    return weights
 
 
 def _box_mean_periodic(values: np.ndarray, radius: int) -> np.ndarray:
@@ -84,14 +103,22 @@ def occlusion_map(height: np.ndarray, grain_px: float) -> np.ndarray:
     big tiles it is taken at half the resolution (a quarter of the work) and spread back."""
     radius = max(1, int(round(grain_px / 2.0)))
     n = height.shape[0]
-    if radius >= 8 and n % 2 == 0:
+    halved = radius >= 8 and n % 2 == 0
+    if halved:
         half = height.reshape(n // 2, 2, n // 2, 2).mean(axis=(1, 3), dtype=np.float64)
         mean = _box_mean_periodic(half, radius // 2)
-        mean = np.repeat(np.repeat(mean, 2, axis=0), 2, axis=1)
     else:
         mean = _box_mean_periodic(height, radius)
-    below = np.maximum(mean - height, 0.0)
-    return np.clip(1.0 - OCCLUSION_STRENGTH * below / PROFILE_TOP, 0.0, 1.0).astype(np.float32)
+    occlusion = np.empty(height.shape, np.float32)
+    for band in _bands(n):
+        if halved:
+            around = mean[band.start // 2 : band.stop // 2]
+            around = np.repeat(np.repeat(around, 2, axis=0), 2, axis=1)
+        else:
+            around = mean[band]
+        below = np.maximum(around - height[band], 0.0)
+        occlusion[band] = np.clip(1.0 - OCCLUSION_STRENGTH * below / PROFILE_TOP, 0.0, 1.0)
+    return occlusion
 
 
 def albedo_scale(preset: Preset, textures: SandTextures, moments=None) -> np.ndarray:
@@ -142,18 +169,21 @@ def material_maps(preset: Preset, textures: SandTextures) -> MaterialMaps:
     # light, F scaled by the specular strength. Our far field's diffuse is what the grains send
     # back after that loss already, so the base colour makes up for it.
     kept = 1.0 - clear * np.float32(mean_fresnel(preset.shading.grain_ior))
-    base = textures.albedo * scale.astype(np.float32)
+    base = np.multiply(textures.albedo, scale.astype(np.float32), dtype=np.float32)
     base /= kept[..., None]
+    del kept
     np.clip(base, 0.0, 1.0, out=base)
-    rough = np.full(clear.shape, far_roughness(preset, moments), dtype=np.float32)
+    rough = np.broadcast_to(np.float32(far_roughness(preset, moments)), clear.shape)
     grain_px = textures.size / preset.generation.period
+    height = np.divide(textures.height, PROFILE_TOP, dtype=np.float32)
+    np.clip(height, 0.0, 1.0, out=height)
     return MaterialMaps(
-        base_color=base.astype(np.float32),
-        normal=textures.normal.astype(np.float32),
-        roughness=rough.astype(np.float32),
+        base_color=base,
+        normal=np.asarray(textures.normal, dtype=np.float32),
+        roughness=rough,
         specular=clear,
         occlusion=occlusion_map(textures.height, grain_px),
-        height=np.clip(textures.height / PROFILE_TOP, 0.0, 1.0).astype(np.float32),
+        height=height,
         albedo_scale=scale,
     )
 
@@ -161,3 +191,14 @@ def material_maps(preset: Preset, textures: SandTextures) -> MaterialMaps:
 def image_rows(array: np.ndarray) -> np.ndarray:
     """Rows of an image file (top first, v = 1) from the generator's (row 0 at v = 0)."""
     return np.ascontiguousarray(np.flipud(array))
+
+
+def image_band(maps: MaterialMaps, make):
+    """The image ``make(maps)`` as a function of a band of its rows (top first), made from
+    those rows of the maps alone: for :func:`~sand_editor.export.images.encode_bands`."""
+    n = maps.size
+
+    def band(rows: slice) -> np.ndarray:
+        return make(maps.rows(slice(n - rows.stop, n - rows.start)))[::-1]
+
+    return band

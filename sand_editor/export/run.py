@@ -14,9 +14,14 @@ DEFAULT_TEXTURE_SIZE = 1024
 
 
 def format_for(out: Path, fmt: str | None) -> str:
-    """The format asked for, or the one the file name's suffix names."""
+    """The format asked for, or the one the file name's suffix names.
+
+    A format the name contradicts is refused: a file is read back (``Preset.load``, and most
+    viewers) as GLB when it ends in ``.glb`` and as JSON otherwise, so a GLB must end in
+    ``.glb`` and a .gltf must not."""
+    suffix = out.suffix.lower()
     if fmt is None:
-        fmt = out.suffix.lower().lstrip(".")
+        fmt = suffix.lstrip(".")
         if fmt not in FORMATS:
             raise ValueError(
                 f"{out}: cannot tell the format from the suffix; name a .glb or .gltf file, or "
@@ -24,6 +29,12 @@ def format_for(out: Path, fmt: str | None) -> str:
             )
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; allowed {', '.join(FORMATS)}")
+    if (fmt == "glb") != (suffix == ".glb"):
+        wanted = "a .glb file" if fmt == "glb" else "a .gltf file (any name but .glb)"
+        raise ValueError(
+            f"--format {fmt} does not fit --out {out}: a file ending in .glb is read back as "
+            f"GLB, any other as JSON; allowed with --format {fmt}: {wanted}, or no --format"
+        )
     return fmt
 
 
@@ -50,6 +61,7 @@ class ExportSteps(Steps):
         textures = yield from generation_steps(preset, size, ctx, share=0.5)
         yield 0.5, "Making the material maps"
         maps = material_maps(preset, textures)
+        del textures  # the maps keep what they need of it: a 4096² tile's grains are 0.6 GB
         yield 0.7, "Encoding the images"
         files = export_files(preset, maps, out, fmt, options)
         yield 0.95, f"Writing {len(files)} file{'s' if len(files) > 1 else ''}"

@@ -16,8 +16,9 @@ from functools import partial
 
 import numpy as np
 
-from sand_editor.export.images import FORMATS, encode, linear_to_srgb8
-from sand_editor.export.maps import MaterialMaps, image_rows
+from sand_editor.export.images import FORMATS, encode_bands, linear_to_srgb8
+from sand_editor.export.maps import MaterialMaps, image_band
+from sand_editor.files import file_stem
 from sand_editor.preset import Preset
 
 TARGETS = ("gltf", "unity-hdrp", "unreal", "godot")
@@ -48,7 +49,9 @@ class _Map:
     deep: str = ""  # "normal" or "height": its format follows MapFormats
 
 
-def _normal(y_sign: float) -> Callable[[MaterialMaps], np.ndarray]:
+def normal_image(y_sign: float) -> Callable[[MaterialMaps], np.ndarray]:
+    """The normals encoded n · 0.5 + 0.5, +Y up the image (``y_sign`` 1) or down (−1)."""
+
     def make(maps: MaterialMaps) -> np.ndarray:
         n = maps.normal * np.array([1.0, y_sign, 1.0], np.float32)
         return n * 0.5 + 0.5
@@ -56,11 +59,13 @@ def _normal(y_sign: float) -> Callable[[MaterialMaps], np.ndarray]:
     return make
 
 
-def _base(maps: MaterialMaps) -> np.ndarray:
+def base_color_image(maps: MaterialMaps) -> np.ndarray:
+    """The base colour, sRGB 8-bit codes."""
     return linear_to_srgb8(maps.base_color)
 
 
-def _orm(maps: MaterialMaps) -> np.ndarray:
+def orm_image(maps: MaterialMaps) -> np.ndarray:
+    """Occlusion, roughness and metallic (0) in R, G, B: glTF's and the engines' ORM."""
     return np.stack([maps.occlusion, maps.roughness, np.zeros_like(maps.roughness)], axis=-1)
 
 
@@ -76,11 +81,11 @@ _NORMAL_GL = "tangent-space normal, OpenGL convention (+Y up the image)"
 _SETS: dict[str, tuple[list[_Map], str]] = {
     "gltf": (
         [
-            _Map("BaseColor", _base, "base colour, sRGB"),
-            _Map("Normal", _normal(1.0), _NORMAL_GL, "normal"),
+            _Map("BaseColor", base_color_image, "base colour, sRGB"),
+            _Map("Normal", normal_image(1.0), _NORMAL_GL, "normal"),
             _Map(
                 "ORM",
-                _orm,
+                orm_image,
                 "R occlusion, G roughness, B metallic (0): glTF's "
                 "occlusionTexture and metallicRoughnessTexture may share it",
             ),
@@ -99,14 +104,14 @@ _SETS: dict[str, tuple[list[_Map], str]] = {
     ),
     "unity-hdrp": (
         [
-            _Map("BaseMap", _base, "Base Map, sRGB"),
+            _Map("BaseMap", base_color_image, "Base Map, sRGB"),
             _Map(
                 "MaskMap",
                 _hdrp_mask,
                 "Mask Map: R metallic (0), G ambient occlusion, "
                 "B detail mask (1), A smoothness (1 − roughness)",
             ),
-            _Map("Normal", _normal(1.0), _NORMAL_GL + " as Unity expects", "normal"),
+            _Map("Normal", normal_image(1.0), _NORMAL_GL + " as Unity expects", "normal"),
             _HEIGHT,
         ],
         "Unity HDRP Lit shader: Base Map = BaseMap (sRGB), Mask Map = MaskMap (import with "
@@ -115,15 +120,15 @@ _SETS: dict[str, tuple[list[_Map], str]] = {
     ),
     "unreal": (
         [
-            _Map("BaseColor", _base, "Base Color, sRGB"),
+            _Map("BaseColor", base_color_image, "Base Color, sRGB"),
             _Map(
                 "Normal",
-                _normal(-1.0),
+                normal_image(-1.0),
                 "tangent-space normal, DirectX convention (−Y up the "
                 "image, green flipped) as Unreal expects",
                 "normal",
             ),
-            _Map("ORM", _orm, "R ambient occlusion, G roughness, B metallic (0)"),
+            _Map("ORM", orm_image, "R ambient occlusion, G roughness, B metallic (0)"),
             _HEIGHT,
         ],
         "Unreal Engine material: Base Color = BaseColor; Normal = Normal (compression "
@@ -134,9 +139,9 @@ _SETS: dict[str, tuple[list[_Map], str]] = {
     ),
     "godot": (
         [
-            _Map("Albedo", _base, "albedo, sRGB"),
-            _Map("Normal", _normal(1.0), _NORMAL_GL + " as Godot expects", "normal"),
-            _Map("ORM", _orm, "R ambient occlusion, G roughness, B metallic (0)"),
+            _Map("Albedo", base_color_image, "albedo, sRGB"),
+            _Map("Normal", normal_image(1.0), _NORMAL_GL + " as Godot expects", "normal"),
+            _Map("ORM", orm_image, "R ambient occlusion, G roughness, B metallic (0)"),
             _HEIGHT,
         ],
         "Godot 4 ORMMaterial3D: Albedo texture = Albedo, ORM texture = ORM, Normal Map = Normal "
@@ -148,15 +153,19 @@ _SETS: dict[str, tuple[list[_Map], str]] = {
 
 def _encode_map(maps: MaterialMaps, entry: _Map, fmt: str) -> tuple[bytes, str]:
     # Normals in EXR as half floats (engines' own choice for them); heights as full floats.
-    return encode(image_rows(entry.make(maps)), fmt, half=entry.deep == "normal")
+    half = entry.deep == "normal"
+    return encode_bands(image_band(maps, entry.make), maps.size, fmt, half=half)
 
 
 def texture_set(
     preset: Preset, maps: MaterialMaps, target: str, formats: MapFormats, stem: str
 ) -> dict[str, bytes]:
-    """The files of a target's set by name, README last."""
+    """The files of a target's set by name, README last; the maps' names start with ``stem``
+    made a safe file stem (:func:`~sand_editor.files.file_stem`: it is the preset's name, which
+    a downloaded file may carry)."""
     if target not in _SETS:
         raise ValueError(f"unknown target {target!r}; allowed {', '.join(TARGETS)}")
+    stem = file_stem(stem)
     entries, how = _SETS[target]
     files: dict[str, bytes] = {}
     lines = []

@@ -13,10 +13,12 @@ from sand_editor.generator.noise import SHADER_DEFINES, NoiseConstants, grain_ap
 from sand_editor.gl import (
     draw_fullscreen,
     drawing_into,
+    finish_without_gil,
     fullscreen_program,
-    read_without_gil,
     release_program,
 )
+
+READ_BAND_ROWS = 256
 
 
 @dataclass
@@ -48,11 +50,25 @@ class GpuSandTextures:
         """
         n = self.size
         # The wait for the draws leaves Python free for other threads; the copies hold it.
-        nh = np.frombuffer(read_without_gil(self.normal_height), dtype=np.float32).reshape(n, n, 4)
-        lg = np.frombuffer(self.layer_grain.read(), dtype=np.uint32).reshape(n, n, 2)
-        layer = lg[..., 0].astype(np.int8) - np.int8(1)
-        grain = lg[..., 1].copy()
-        albedo, glint = grain_appearance(constants, layer, grain)
+        finish_without_gil()
+        # Read and coloured a band of rows at a time, straight into the arrays kept: a 4096²
+        # tile's whole read-back and its colouring's temporaries would take another gigabyte.
+        nh = np.empty((n, n, 4), np.float32)
+        layer = np.empty((n, n), np.int8)
+        grain = np.empty((n, n), np.uint32)
+        albedo = np.empty((n, n, 3), np.float32)
+        glint = np.empty((n, n), np.float32)
+        lg = np.empty((min(n, READ_BAND_ROWS), n, 2), np.uint32)
+        for start in range(0, n, READ_BAND_ROWS):
+            rows = min(READ_BAND_ROWS, n - start)
+            viewport = (0, start, n, rows)
+            self.framebuffer.read_into(nh, viewport, 4, attachment=0, dtype="f4",
+                                       write_offset=start * n * nh.itemsize * 4)  # fmt: skip
+            self.framebuffer.read_into(lg, viewport, 2, attachment=1, dtype="u4")
+            band = slice(start, start + rows)
+            layer[band] = lg[:rows, :, 0].astype(np.int8) - np.int8(1)
+            grain[band] = lg[:rows, :, 1]
+            albedo[band], glint[band] = grain_appearance(constants, layer[band], grain[band])
         return SandTextures(
             albedo=albedo,
             # Views into the one read-back buffer: copying 16 MB at 1024² would cost more than
@@ -82,8 +98,23 @@ class GpuSandTextures:
                 draw.release()
 
     def release(self) -> None:
+        ctx = self.framebuffer.ctx
         for obj in (self.framebuffer, self.normal_height, self.layer_grain):
             obj.release()
+        _draw_elsewhere(ctx)
+
+
+def _draw_elsewhere(ctx: moderngl.Context) -> None:
+    """Clear a 1×1 framebuffer: a software rasterizer (Mesa's llvmpipe) keeps the textures of
+    the last framebuffer it drew into until it draws into another, 384 MB for a 4096² tile."""
+    texture = ctx.texture((1, 1), 4)
+    framebuffer = ctx.framebuffer(color_attachments=[texture])
+    try:
+        with drawing_into(ctx, framebuffer):
+            framebuffer.clear()
+    finally:
+        framebuffer.release()
+        texture.release()
 
 
 class GLGenerator:

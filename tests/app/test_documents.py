@@ -203,3 +203,15 @@ def test_hostile_files_get_one_line_dialog_and_the_work_stays(
     message = critical_calls[0]
     assert str(path) in message
     assert window.model.preset == work and window.isWindowModified()
+
+
+@pytest.mark.parametrize("name", ["../../x", "/tmp/x", "CON"])
+def test_save_dialogs_offer_a_file_in_the_folder_whatever_the_name(window, tmp_path, name):
+    from dataclasses import replace
+    from pathlib import Path
+
+    window.model.reset(replace(Preset(), name=name))
+    for suffix in (".json", ".glb", ".png"):
+        offered = Path(window.suggested_file(tmp_path, suffix))
+        assert offered.parent == tmp_path and offered.suffix == suffix
+        assert not offered.name.startswith((".", "CON."))

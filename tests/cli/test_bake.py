@@ -98,6 +98,15 @@ def test_bake_command_line(tmp_path):
     assert json.loads((out / "material.json").read_text())["size"] == 64
 
 
+def test_the_bake_line_shows_the_out_folder_escaped_on_one_line(tmp_path):
+    out = tmp_path / "a\nb\x1b]0;title\x07"
+    result = run_cli("bake", "red-desert", "--size", "64", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.count("\n") == 1 and "\x1b" not in result.stdout
+    assert "a\\nb\\x1b]0;title\\x07: top-layer" in result.stdout
+    assert (out / "material.json").is_file()
+
+
 @pytest.mark.parametrize(
     ("content", "fragment"),
     [

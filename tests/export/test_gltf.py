@@ -162,6 +162,16 @@ def test_saving_a_preset_over_a_gltf_file_is_refused(tmp_path):
 
 
 @pytest.mark.gl
+def test_the_success_line_shows_the_out_path_escaped_on_one_line(gl_ctx, tmp_path, capsys):
+    out = tmp_path / "a\nb\x1b[2Jc.glb"
+    assert main(["export", "pale-quartz", "--out", str(out), "--size", "64"]) == 0
+    said = capsys.readouterr().out
+    assert said.count("\n") == 1 and "\x1b" not in said
+    assert said.rstrip("\n").endswith("a\\nb\\x1b[2Jc.glb")
+    assert out.is_file()
+
+
+@pytest.mark.gl
 def test_the_export_command_writes_a_glb_and_says_so(gl_ctx, tmp_path, capsys):
     out = tmp_path / "patch.glb"
     status = main(["export", "pale-quartz", "--out", str(out), "--size", "64", "--patch", "5"])
@@ -177,6 +187,9 @@ def test_the_export_command_writes_a_glb_and_says_so(gl_ctx, tmp_path, capsys):
     "argv, message",
     [
         (["--out", "x.obj"], "cannot tell the format from the suffix"),
+        (["--out", "x.glb", "--format", "gltf"], "--format gltf does not fit --out"),
+        (["--out", "x.gltf", "--format", "glb"], "--format glb does not fit --out"),
+        (["--out", "x.bin", "--format", "glb"], "allowed with --format glb: a .glb file"),
         (["--out", "x.glb", "--patch", "0"], "--patch 0.0: allowed 0.01 to 1000"),
         (["--out", "x.glb", "--patch", "nan"], "--patch nan: allowed"),
         (["--out", "x.glb", "--size", "10"], "10"),

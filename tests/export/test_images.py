@@ -215,3 +215,26 @@ def test_a_2048_square_rgb_map_encodes_in_every_format():
     decoded = decode(encode_png(values, 16))
     assert decoded.shape == (2048, 2048, 3)
     assert np.array_equal(decoded, images.quantise(values, 16))
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.parametrize("shape", [(300, 7), (256, 5, 3), (513, 3, 4), (1, 1)])
+def test_an_image_encoded_in_bands_is_the_file_encoded_whole(fmt, shape):
+    rng = np.random.default_rng(7)
+    values = rng.uniform(-0.25, 1.25, shape)  # float64, past [0, 1]: clipping and rounding
+    asked = []
+
+    def band(rows: slice) -> np.ndarray:
+        asked.append((rows.start, rows.stop))
+        return values[rows]
+
+    assert images.encode_bands(band, shape[0], fmt) == encode(values, fmt)
+    assert asked[0][0] == 0 and asked[-1][1] == shape[0]
+    assert all(stop - start <= images.BAND_ROWS for start, stop in asked)
+
+
+def test_an_exr_encoded_in_bands_still_refuses_values_beyond_float32():
+    values = np.zeros((300, 4))
+    values[299, 3] = 1e300
+    with pytest.raises(ValueError, match="1 of 1200 values are not finite"):
+        images.encode_bands(lambda rows: values[rows], 300, "exr")

@@ -4,8 +4,14 @@ and the numerical hard cases of the far field's Lambertian equivalent."""
 
 from __future__ import annotations
 
+import dataclasses
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
 
 from sand_editor.bake import BakeSteps, bake
 from sand_editor.cli import main, run_with_progress
@@ -219,3 +225,30 @@ def test_the_default_bake_is_unchanged(gl_ctx, tmp_path):
     record = bake(Preset(), SIZE, tmp_path)
     assert record["format"] == "sand-editor-material"
     assert (tmp_path / "height.png").exists() and (tmp_path / "material.json").exists()
+
+
+_ROOT = "{root}"  # stands for the test's own folder, so an absolute name would land in it
+_names = st.one_of(
+    st.text(min_size=1, max_size=80),
+    st.builds(lambda up, rest: "../" * up + rest, st.integers(1, 4), st.text(max_size=60)),
+    st.builds(lambda rest: f"{_ROOT}/{rest}", st.text(max_size=60)),
+).filter(lambda name: 1 <= len(name) <= 80 and name.isprintable())
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(name=_names, target=st.sampled_from(TARGETS))
+@example(name="../../ESCAPED_rel", target="unreal")
+@example(name=f"{_ROOT}/ESCAPED_abs", target="godot")
+@example(name="..", target="gltf")
+@example(name="CON", target="unity-hdrp")
+@example(name="é" * 80, target="unreal")
+def test_a_preset_name_writes_nothing_outside_the_bake_folder(name, target):
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder).resolve()
+        out = root / "deep" / "out"
+        preset = dataclasses.replace(Preset(), name=name.replace(_ROOT, str(root)))
+        record = bake(preset, SIZE, out, backend="reference", target=target)
+        made = {path for path in root.rglob("*") if path.is_file()}
+        assert made and all(path.parent == out for path in made), sorted(map(str, made))
+        assert sorted(path.name for path in made) == sorted(record["files"])
+        assert "README.txt" in record["files"]
