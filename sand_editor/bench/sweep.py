@@ -252,8 +252,9 @@ def format_table(results: dict) -> str:
         views = [f"{d:g} m {t}" for d, t in SPARKLE_VIEWS]
         lines += [
             "",
-            f"Sparkle share: ground pixels at least {SPARKLE_CONTRAST:g}× the median of their "
-            f"{SPARKLE_NEIGHBOURHOOD}×{SPARKLE_NEIGHBOURHOOD} neighbourhood, final "
+            f"Sparkle share: ground pixels that glints lift to at least {SPARKLE_CONTRAST:g}× the "
+            f"median of their {SPARKLE_NEIGHBOURHOOD}×{SPARKLE_NEIGHBOURHOOD} neighbourhood and "
+            "to as many times what they show without glints, final "
             f"{SPARKLE_FRAME[0]}×{SPARKLE_FRAME[1]} frame, pitch {PITCH_DEG:g}°, 1024² tile:",
             "",
             "| preset | " + " | ".join(views) + " |",
