@@ -97,10 +97,16 @@ def test_appearance_bench_writes_its_sweep_and_contact_sheet(tmp_path):
     paths = ("--json", str(json_path), "--plot", str(plot_path))
     result = run_bench("appearance", *paths, timeout=900)
     assert "| black-volcanic |" in result.stdout
-    rows = json.loads(json_path.read_text())["rows"]
-    assert {row["preset"] for row in rows} >= {"paper-default", "random-3"}
+    data = json.loads(json_path.read_text())
+    rows = data["rows"]
+    assert {row["preset"] for row in rows} >= {"paper-default", "random-2026-3"}
     assert len(rows) == 8 * 2 * 5  # presets × suns × distances
     assert all(row["finite"] and row["clipped"] <= 0.01 for row in rows)
+    # Every shipped sand's sparkle share in each of the four views, a share of the ground.
+    assert len(data["sparkles"]) == 4
+    assert all(len(views) == 4 and all(0.0 <= v["share"] <= 1.0 for v in views)
+               for views in data["sparkles"].values())  # fmt: skip
+    assert any(v["share"] > 0 for v in data["sparkles"]["black-volcanic"])
     from PIL import Image
 
     assert Image.open(plot_path).size == (3 * 320, 4 * 180)
