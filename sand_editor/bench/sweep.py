@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from sand_editor.bench.probe import MaterialProbe
+from sand_editor.generator.noise import srgb_to_linear
 from sand_editor.preset import FIELDS, Color, Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.exposure import light_exposure
@@ -94,12 +95,6 @@ def _ground(image: np.ndarray) -> np.ndarray:
     return image[image.shape[0] // 2 :] @ LUMINANCE
 
 
-def _decoded(frame: np.ndarray) -> np.ndarray:
-    """Linear values of an 8-bit sRGB frame."""
-    c = frame.astype(np.float64) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
 class Sweep:
     """A material, its probe and a renderer on one context, reused for every preset."""
 
@@ -149,7 +144,10 @@ class Sweep:
         frames = {mode: self.frame(distance, time_text, mode) for mode in ("full", "close", "far")}
         finite &= all(ok for _, ok in frames.values())
         frame = frames["full"][0]
-        lit = {mode: float(_ground(_decoded(f)).mean()) for mode, (f, _) in frames.items()}
+        lit = {
+            mode: float(_ground(srgb_to_linear(f / 255.0)).mean())
+            for mode, (f, _) in frames.items()
+        }
         return {
             "finite": finite,
             "close": means["drawn"],
@@ -286,8 +284,8 @@ def sparkle_share(frame: np.ndarray, without_glints: np.ndarray) -> float:
     sparkle: at least SPARKLE_CONTRAST times the median of their neighbourhood in linear
     luminance, and at least that many times what the same pixel shows without glints (so that
     bright grains beside dark ones do not count)."""
-    luminance = _ground(_decoded(frame))
-    plain = _ground(_decoded(without_glints))
+    luminance = _ground(srgb_to_linear(frame / 255.0))
+    plain = _ground(srgb_to_linear(without_glints / 255.0))
     r = SPARKLE_NEIGHBOURHOOD // 2
     padded = np.pad(luminance, r, mode="edge")
     windows = np.lib.stride_tricks.sliding_window_view(padded, (2 * r + 1, 2 * r + 1))
