@@ -114,15 +114,16 @@ def test_no_close_frame_is_black_beside_its_far_frame(rows, presets, explain):
         and _diffuse_led(row)
         and row["frame_close"] < BLACK_SHARE * row["frame_far"]
     ]
-    # Known open fault: on strongly rippled sand under a low sun the far frame shows the sun's
-    # glare on the ripples' slopes and the close frame does not (with the ripples flattened the
-    # two agree), though their HDR means agree. Any other dark close frame fails.
+    # Known open case: on strongly rippled sand the far frame shows the sun's glare on the
+    # ripples' slopes as a smooth sheen, while close up the same light is carried by facets that
+    # each mirror the sun with a tiny chance: a dark frame with a rare sparkle, its HDR mean the
+    # far one's (with the ripples flattened the frames agree). Any other dark close frame fails.
     rippled = [row for row in dark if presets[row["preset"]].shading.ripple_strength > RIPPLED]
     assert not [row for row in dark if row not in rippled], explain(
         next(row for row in dark if row not in rippled)
     )
     if rippled:
-        pytest.xfail("open: ripple glare missing close up; " + explain(rippled[0]))
+        pytest.xfail("open: ripple glare drawn as rare sparkles close up; " + explain(rippled[0]))
 
 
 def test_the_shipped_sands_are_compared_at_every_distance(rows):
