@@ -40,7 +40,7 @@ BLACK_SHARE = 0.5
 GLINT_DOMINATED = 0.5
 
 
-# Ripples stronger than this (the shipped sands' are near 0.05) are the open fault's domain.
+# Ripples stronger than this (the shipped sands' are near 0.05) are the open case's domain.
 RIPPLED = 0.1
 
 
