@@ -40,6 +40,19 @@ MIN_GRAINS_ACROSS = 100
 DRAW_SIGMAS = 3.0
 
 
+def draw_bound(sigma: float, largest: float, sigmas: float = DRAW_SIGMAS) -> float:
+    """How far a frame's mean drawn light may lie from its expectation: Bernstein's bound on a
+    sum of independent Poisson terms, with the exponent a normal tail has at ``sigmas`` standard
+    deviations (−ln p = sigmas²/2). ``sigma`` is the draw's standard deviation and ``largest``
+    the most one facet adds to the mean. Where many facets each add little, it is ``sigmas``·σ;
+    where a few facets carry the light, one of them may lie far out on its own, and the bound
+    says how far."""
+    log_chance = 0.5 * sigmas * sigmas  # −ln p
+    # t² = 2·ln(1/p)·(σ² + b·t/3), for t.
+    b = 2.0 * log_chance * largest / 3.0
+    return float(0.5 * (b + np.sqrt(b * b + 8.0 * log_chance * sigma * sigma)))
+
+
 def _colour(rng: np.random.Generator) -> Color:
     return Color.from_hex(f"#{int(rng.integers(0, 1 << 24)):06x}")
 
@@ -140,6 +153,7 @@ class Sweep:
         # expected glint times that unit, and the frame's mean has the mean of those over N.
         variance = np.maximum(ground["glints"] * ground["one_facet"], 0.0)
         draw_sigma = float(np.sqrt(variance.sum()) / variance.size)
+        draw_largest = float(ground["one_facet"].max() / variance.size)
         far = means["far"]
         frames = {mode: self.frame(distance, time_text, mode) for mode in ("full", "close", "far")}
         finite &= all(ok for _, ok in frames.values())
@@ -155,6 +169,7 @@ class Sweep:
             "far": far,
             "glint_share": means["glints"] / far if far > 0 else 0.0,
             "draw_sigma": draw_sigma,
+            "draw_largest": draw_largest,
             "close_over_far": means["expected"] / far if far > 0 else 1.0,
             "drawn_over_far": means["drawn"] / far if far > 0 else 1.0,
             "frame_close": lit["close"],

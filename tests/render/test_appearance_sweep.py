@@ -22,6 +22,7 @@ from sand_editor.bench.sweep import (
     MIN_GRAINS_ACROSS,
     SHIPPED,
     Sweep,
+    draw_bound,
     random_preset,
     sweep_presets,
 )
@@ -102,8 +103,24 @@ def test_close_and_far_hold_the_same_light_in_expectation(rows, explain):
 
 def test_the_drawn_sparkles_keep_the_far_light_within_their_spread(rows, explain):
     for row in (row for row in rows if row["compared"]):
-        allowed = AGREEMENT * row["far"] + DRAW_SIGMAS * row["draw_sigma"]
+        allowed = AGREEMENT * row["far"] + draw_bound(row["draw_sigma"], row["draw_largest"])
         assert abs(row["close"] - row["far"]) <= allowed, explain(row)
+
+
+def test_the_draw_bound_is_the_normal_one_for_many_facets_and_wider_for_few():
+    assert draw_bound(0.01, 0.0) == pytest.approx(DRAW_SIGMAS * 0.01)
+    assert draw_bound(0.01, 1e-6) == pytest.approx(DRAW_SIGMAS * 0.01, rel=1e-3)
+    # A few facets, each a large part of the frame's light: one may be drawn on its own.
+    assert draw_bound(0.03, 0.095) > 0.095
+    # Against drawn frames: 3 facets expected, each 1/3 of the frame's glint; the bound holds for
+    # all but the rare frame a normal bound of 3σ would allow, and a normal 3σ fails many more.
+    rng = np.random.default_rng(7)
+    unit, expected = 1.0 / 3.0, 3.0
+    draws = rng.poisson(expected, 200_000) * unit
+    sigma = np.sqrt(expected) * unit
+    beyond = np.abs(draws - 1.0) > draw_bound(sigma, unit)
+    assert beyond.mean() < 0.005
+    assert (np.abs(draws - 1.0) > DRAW_SIGMAS * sigma).mean() > 2 * beyond.mean()
 
 
 def test_no_close_frame_is_black_beside_its_far_frame(rows, presets, explain):
