@@ -10,12 +10,13 @@
 // L, so the sparkle keeps the expected-value filter's energy, and each sparkle is exactly as
 // bright as a real facet of that size mirroring the real sun.
 //
-// The draw is anchored in texture space: a patch is a texel of a mip level near the pixel's
-// footprint, hashed with its level and with the half vector's bin in slope space, one bin as
-// wide as the cone of half vectors the sun's disc spans (half its angular radius: a facet
-// mirrors the sun while the half vector stays within that cone). Camera motion leaves the
-// patches and their counts where they are; another half vector (the other eye) falls into
-// another bin and draws other facets, as in life.
+// The draw is anchored on the ground: a patch is a cell of the ground's own grid (not the
+// tile's) as wide as a texel of a mip level near the pixel's footprint, hashed with its level
+// and with the half vector's bin in slope space, one bin as wide as the cone of half vectors
+// the sun's disc spans (half its angular radius: a facet mirrors the sun while the half vector
+// stays within that cone). Camera motion leaves the patches and their counts where they are;
+// another half vector (the other eye) falls into another bin and draws other facets, as in
+// life.
 
 uniform float u_facet_size;  // edge of one facet of a grain, µm
 
@@ -74,16 +75,16 @@ const int PLACED_FACETS = 16;
 // as the footprint, so that it overlaps at most 2×2 of them. Between two levels the coarser is
 // taken with the fractional level's chance, decided per coarse patch, so that zooming changes
 // patches a few at a time. Levels go past the top of the texture's pyramid far away (patches
-// of several tiles).
+// of several tiles). The moments a patch draws from repeat with the tile, its draw does not:
+// the sparkles show no tile grid, and patches wider than a tile each draw their own.
 struct Patches {
     bool valid;
     float level;          // of the patches (log2 of their edge in finest-level texels)
     float size;           // their edge in finest-level texels
-    float per_tile;       // patches per tile edge (at least 1)
     float facets;         // facets in one patch
     float pixel_facets;   // facets in the pixel's footprint
     ivec2 first;          // the lower-left patch the footprint overlaps
-    vec2 texel;           // the footprint's centre, finest-level texels within the tile
+    vec2 texel;           // the footprint's centre, finest-level texels of the ground
     vec2 extent;          // its bounding box
     mat2 to_pixel;        // texels from the centre → footprint coordinates (|a|, |b| ≤ ½ inside)
 };
@@ -102,13 +103,12 @@ Patches footprint_patches(vec2 tc, vec2 dx, vec2 dy, float texture_size, float f
     p.extent = abs(px) + abs(py);
     float level = max(log2(max(max(p.extent.x, p.extent.y), facet_texels)), 0.0);
     float fine = ceil(level);
-    p.texel = fract(tc) * texture_size;
-    ivec2 coarse_cell = ivec2(p.texel / exp2(fine + 1.0));
+    p.texel = tc * texture_size;
+    ivec2 coarse_cell = ivec2(floor(p.texel / exp2(fine + 1.0)));
     uint coarse_key = hash_cell(coarse_cell, uint(fine + 1.0) * 4u + 1u);
     bool take_coarse = hash01(coarse_key) < level - floor(level);
     p.level = take_coarse ? fine + 1.0 : fine;
     p.size = exp2(p.level);
-    p.per_tile = max(floor(texture_size / p.size + 0.5), 1.0);
     p.facets = p.size * p.size / facet_area;
     p.first = ivec2(floor((p.texel - 0.5 * p.extent) / p.size));
     return p;
@@ -133,8 +133,7 @@ vec2 patch_centre(Patches p, ivec2 cell, float texture_size) {
 //   light: 0 sun, 1 moon (their facets are drawn independently)
 float facets_in_pixel(Patches p, ivec2 cell, float lambda, vec2 b_half, uint light) {
     if (!(lambda > 0.0)) return 0.0;
-    ivec2 wrapped = ivec2(mod(vec2(cell), p.per_tile));
-    uint patch_key = hash_cell(wrapped, uint(p.level) * 4u + light * 2u);
+    uint patch_key = hash_cell(cell, uint(p.level) * 4u + light * 2u);
     // Half-vector bins one cone across, their grid offset per patch so that bin edges are not
     // lines across the image.
     vec2 offset = vec2(open01(patch_key), open01(lowbias32(patch_key)));
