@@ -191,7 +191,8 @@ def _check(arrays: dict[str, np.ndarray], generation) -> None:
     # np.seterr(all="raise"), an error that is no ValueError.
     if np.abs(normal).max() > 1.0 + UNIT_TOLERANCE:
         raise ValueError("the shared tile's normals are not unit vectors")
-    length = np.linalg.norm(normal, axis=-1)
+    with np.errstate(under="ignore"):  # a tiny component squares to zero, which is harmless
+        length = np.linalg.norm(normal, axis=-1)
     if np.abs(length - 1.0).max() > UNIT_TOLERANCE:
         raise ValueError("the shared tile's normals are not unit vectors")
     layers = getattr(generation, "layers", None) or MAX_LAYERS

@@ -354,6 +354,18 @@ _values = st.one_of(
 
 
 @needs_dev_shm
+def test_a_normal_with_a_tiny_component_is_read_without_an_underflow_error(reference_tile):
+    # Its square underflows float32; under np.errstate(all="raise") that was a FloatingPointError
+    # (found by the fuzz test below), where the tile is a valid one.
+    arrays = {k: v.copy() for k, v in _arrays(reference_tile).items()}
+    arrays["normal"].reshape(-1, 3)[0] = (1e-30, 0.0, 1.0)
+    data = b"".join(np.ascontiguousarray(arrays[k]).tobytes() for k in _FIELDS)
+    with _segment(data) as name, np.errstate(all="raise"):
+        tile = read_shared(name, SIZE, reference_tile.generation)
+    assert tile.normal.reshape(-1, 3)[0, 0] == np.float32(1e-30)
+
+
+@needs_dev_shm
 @settings(
     max_examples=300, deadline=None, database=None,
     suppress_health_check=[HealthCheck.too_slow],
