@@ -154,13 +154,12 @@ def test_runtime_environment_and_no_leftovers(monado_harness):
 
 
 def test_timeout_is_honoured_and_cleans_up(monado_harness):
-    start = time.monotonic()
+    # The command would sleep 120 s; _run gives up (an error) at 60, so a return at all means
+    # the harness stopped it, and 124 with its message says it was the harness's own timeout.
     result = _run(monado_harness, "--timeout", "3", "sh", "-c", "sleep 120", timeout=60)
-    elapsed = time.monotonic() - start
     _remove_run_dir(result.stderr)
     assert result.returncode == 124, result.stderr
     assert "timed out after 3 s" in result.stderr
-    assert elapsed < 30
     _assert_no_leftovers()
 
 
