@@ -186,22 +186,42 @@ class ShaderSourceError(ValueError):
     """A shader file names an include that does not exist, or includes itself."""
 
 
+# Each file of a program numbers its lines from its own base: `#line` directives keep the
+# compiler's line numbers those of the file (the first file's own, file k's k·LINE_STRIDE more),
+# so a compile error can name the file and line. GLSL's #line takes a source number too, but
+# drivers do not all report it.
+LINE_STRIDE = 100_000
+# Mesa writes "0:LINE(COLUMN)", NVIDIA "0(LINE)".
+_MESA_LINE = re.compile(r"\b\d+:(\d+)\((\d+)\)")
+_NVIDIA_LINE = re.compile(r"\b\d+\((\d+)\)")
+
+
 def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
     """GLSL source of a file in ``shaders/`` with its ``#include "…"`` lines resolved and
     ``defines`` inserted after its ``#version`` line.
 
     Each file is included once per program (later includes of it are dropped), so shared
     libraries can include what they use. ``#include "file" if NAME`` includes the file only
-    when ``defines`` holds NAME.
+    when ``defines`` holds NAME. ``#line`` directives number each file's lines as its own
+    (see :func:`source_line`).
     """
+    return _expand(name, defines)[0]
+
+
+def _expand(name: str, defines: Mapping[str, object] | None) -> tuple[str, tuple[str, ...]]:
     seen: set[str] = set()
+    files: list[str] = []
     defined = set(defines or ())
 
-    def include(match: re.Match, chain: tuple[str, ...]) -> str:
+    def include(match: re.Match, chain: tuple[str, ...], base: int, text: str) -> str:
         file, condition = match.group(1), match.group(2)
         if condition is not None and condition not in defined:
             return ""
-        return expand(file, chain)
+        body = expand(file, chain)
+        if not body:
+            return ""
+        after = text.count("\n", 0, match.start()) + 2  # the parent's line after the include
+        return f"{body}\n#line {base + after}"
 
     def expand(file: str, chain: tuple[str, ...]) -> str:
         if file in chain:
@@ -214,14 +234,39 @@ def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
         except FileNotFoundError:
             where = f" (included from shaders/{chain[-1]})" if chain else ""
             raise ShaderSourceError(f"shaders/{file}: no such shader file{where}") from None
-        return _INCLUDE.sub(lambda m: include(m, (*chain, file)), text)
+        base = len(files) * LINE_STRIDE
+        files.append(file)
+        body = _INCLUDE.sub(lambda m: include(m, (*chain, file), base, text), text)
+        return body if not chain else f"#line {base + 1}\n{body}"
 
     source = expand(name, ())
-    if defines:
-        header, _, body = source.partition("\n")
-        lines = "".join(f"#define {key} {value}\n" for key, value in defines.items())
-        source = f"{header}\n{lines}{body}"
-    return source
+    header, _, body = source.partition("\n")
+    lines = "".join(f"#define {key} {value}\n" for key, value in (defines or {}).items())
+    return f"{header}\n{lines}#line 2\n{body}", tuple(files)
+
+
+def source_line(name: str, defines: Mapping[str, object] | None, line: int) -> str:
+    """Where line ``line`` of the compiled ``shader_text(name, defines)``, as the compiler
+    numbers it, comes from: ``shaders/FILE:LINE``."""
+    files = _expand(name, defines)[1]
+    index, own = divmod(line, LINE_STRIDE)
+    if not 0 <= index < len(files):
+        return f"line {line}"
+    return f"shaders/{files[index]}:{own}"
+
+
+def _located(message: str, name: str, defines: Mapping[str, object] | None) -> str:
+    """A compiler's message with each line number it names as the shader file and line."""
+    files = _expand(name, defines)[1]
+
+    def where(match: re.Match) -> str:
+        index, own = divmod(int(match.group(1)), LINE_STRIDE)
+        if not 0 <= index < len(files):
+            return match.group(0)
+        column = f":{match.group(2)}" if match.lastindex == 2 else ""
+        return f"shaders/{files[index]}:{own}{column}"
+
+    return _NVIDIA_LINE.sub(where, _MESA_LINE.sub(where, message))
 
 
 _UNIFORM = re.compile(r"^[ \t]*uniform[ \t]+\w+[ \t]+(\w+)", re.M)
@@ -271,17 +316,27 @@ def program(ctx: moderngl.Context, name: str, defines: Mapping[str, object] | No
     """A program from one file holding both stages, ``#if defined VERTEX_SHADER`` and
     ``#elif defined FRAGMENT_SHADER`` sections (the file is compiled once per stage)."""
     base = dict(defines or {})
-    return ctx.program(
-        vertex_shader=shader_text(name, {**base, "VERTEX_SHADER": 1}),
-        fragment_shader=shader_text(name, {**base, "FRAGMENT_SHADER": 1}),
-    )
+    vertex, fragment = {**base, "VERTEX_SHADER": 1}, {**base, "FRAGMENT_SHADER": 1}
+    return _compiled(ctx, (name, vertex), (name, fragment))
 
 
 def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | None = None):
     """Program of the fullscreen triangle and a fragment shader from ``shaders/``."""
-    return ctx.program(
-        vertex_shader=shader_text("fullscreen.vert"), fragment_shader=shader_text(fragment, defines)
-    )
+    return _compiled(ctx, ("fullscreen.vert", None), (fragment, defines))
+
+
+def _compiled(ctx: moderngl.Context, vertex: tuple, fragment: tuple):
+    """Compile a program of two shader files (name, defines); a compile error names the file
+    and line of each message in it."""
+    try:
+        return ctx.program(
+            vertex_shader=shader_text(*vertex), fragment_shader=shader_text(*fragment)
+        )
+    except moderngl.Error as exc:
+        message = str(exc)
+        head, marker, tail = message.partition("fragment_shader\n")
+        located = _located(head, *vertex) + marker + (_located(tail, *fragment) if marker else "")
+        raise moderngl.Error(located) from None
 
 
 @contextmanager

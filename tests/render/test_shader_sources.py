@@ -1,15 +1,25 @@
 """What the product's programs are made of: the benchmark's probe code is in the probe's
-program and nowhere else."""
+program and nowhere else; every line keeps its file's own line number, so that a compile error
+names the file and line it is in."""
 
 from __future__ import annotations
 
 import re
 
+import moderngl
 import pytest
 
-from sand_editor.gl import UniformError, fullscreen_program, program, set_uniform, shader_text
+from sand_editor.gl import (
+    UniformError,
+    fullscreen_program,
+    program,
+    set_uniform,
+    shader_text,
+    source_line,
+)
 from sand_editor.preset import FIELDS
 from sand_editor.render.modes import mode_defines
+from sand_editor.resources import shader_source
 
 # Definitions of the probe's own uniforms and functions (the product calls none of them).
 PROBE_ONLY = (
@@ -83,3 +93,46 @@ def test_a_uniform_no_shader_declares_raises_and_an_unused_one_is_skipped(gl_cle
         assert far["u_sigmoid_a"].value == 3.0
     finally:
         far.release()
+
+
+@pytest.mark.parametrize(
+    ("name", "defines"),
+    [
+        ("terrain.glsl", {**mode_defines(), "FRAGMENT_SHADER": 1}),
+        ("terrain.glsl", {**mode_defines(), "SAND_PROBE": 1, "FRAGMENT_SHADER": 1}),
+        ("terrain.glsl", {**mode_defines(), "VERTEX_SHADER": 1}),
+        ("post.glsl", {"RESOLVE": 1}),
+        ("fullscreen.vert", None),
+    ],
+)
+def test_every_line_of_a_program_maps_back_to_its_file_and_line(name, defines):
+    source = shader_text(name, defines)
+    files, line, checked = set(), None, 0
+    for text in source.split("\n")[1:]:  # after #version, line 1 of the first file
+        directive = re.fullmatch(r"#line (\d+)", text)
+        if directive:
+            line = int(directive.group(1))
+            continue
+        if line is None:  # the defines, before the first file's line 2
+            assert text.startswith("#define "), text
+            continue
+        where = source_line(name, defines, line)
+        file, own = where.removeprefix("shaders/").rsplit(":", 1)
+        original = shader_source(file).split("\n")[int(own) - 1]
+        # An include's line is empty where its file is dropped (included before, or not defined).
+        assert text == original or (not text and "#include" in original), (where, text)
+        files.add(file)
+        checked += 1
+        line += 1
+    assert name in files and checked >= shader_source(name).count("\n")
+    if name == "terrain.glsl":
+        assert {"common.glsl", "sand_surface.glsl", "shadows.glsl"} <= files
+
+
+def test_a_compile_error_names_the_included_file_and_its_line(gl_clean):
+    # MAX_HALF is declared on line 5 of common.glsl, which post.glsl includes: defined away,
+    # that declaration fails to compile.
+    assert shader_source("common.glsl").split("\n")[4].startswith("const float MAX_HALF")
+    with pytest.raises(moderngl.Error) as caught:
+        fullscreen_program(gl_clean, "post.glsl", {"RESOLVE": 1, "MAX_HALF": "+"})
+    assert "shaders/common.glsl:5:" in str(caught.value)
