@@ -56,7 +56,7 @@ void main() {
         w = g < u_clear_grains ? u_layer_light[layer] : 0.0;
     }
     vec3 n = normal_height.xyz;
-    vec2 b = n.xy / n.z;   // n.z ≥ the profile's minimum over |∇n|: never 0
+    vec2 b = n.xy / n.z;   // n.z ≥ about CAP_FLOOR (noise.py): never 0
     out_albedo = vec4(albedo, clamp(relief, 0.0, 1.0));
     out_glint = vec4(w, w * b, w * b.x * b.y);
     out_spread = vec4(w * b * b, b);

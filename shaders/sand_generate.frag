@@ -2,15 +2,15 @@
 #include "common.glsl"
 // Layered, thresholded, tileable 2D Worley grains: the GLSL twin of
 // sand_editor/generator/reference.py (see noise.py for the model). Every constant and every step
-// here mirrors that file; change both together. PROFILE_OFFSET, PROFILE_SCALE and ANCHOR_DEPTH
-// (and KEY_STRIDE, ANCHOR0, ANCHOR1) are #defined from noise.py when the program is built.
+// here mirrors that file; change both together. PROFILE_OFFSET, PROFILE_SCALE, ANCHOR_DEPTH and
+// CAP_FLOOR (and KEY_STRIDE, ANCHOR0, ANCHOR1) are #defined from noise.py when the program is built.
 
 uniform int u_size;          // texture edge in pixels
 uniform int u_period;        // cells per tile edge
 uniform int u_layers;
 uniform uint u_seed_key;    // lowbias32(seed), mixed into every cell key
 uniform float u_threshold;
-uniform float u_grain_reach2; // roundness: a grain needs F1 below this (noise.py)
+uniform float u_grain_reach2; // roundness: the radius² of a grain's ball (noise.py)
 uniform float u_jitter;
 
 // Colour and glint follow from the owning layer and the grain word (noise.py: grain_colour_index,
@@ -68,14 +68,6 @@ Point indexed_point(int index, ivec2 cell, vec2 frac, int layer) {
     return feature_point(ivec2(ox, oy), k, cell, frac, layer);
 }
 
-// ∇√F = (p − f)/√F, zero for a clamped distance (no point, index −1) or at F = 0.
-vec2 distance_gradient(int index, ivec2 cell, vec2 frac, int layer) {
-    if (index < 0) return vec2(0.0);
-    Point p = indexed_point(index, cell, frac, layer);
-    float d = sqrt(p.f);
-    return d > 0.0 ? p.delta / d : vec2(0.0);
-}
-
 void main() {
     // The pixel centre (x + ½)/size · period split into cell and fraction. Numerator and
     // denominator are integers below 2^24, exact in float; a quotient that is not an integer is at
@@ -88,7 +80,7 @@ void main() {
 
     int owner = -1;
     float owner_profile = 0.0;
-    int owner_i1 = -1, owner_i2 = -1;
+    int owner_i1 = -1;
     for (int layer = 0; layer < u_layers; ++layer) {
         float f1 = 1.0, f2 = 1.0;   // the reference clamps squared distances at 1
         int i1 = -1, i2 = -1;
@@ -109,7 +101,6 @@ void main() {
             owner = layer;
             owner_profile = profile;
             owner_i1 = i1;
-            owner_i2 = i2;
             break;
         }
     }
@@ -117,10 +108,14 @@ void main() {
     out_normal_height = vec4(0.0, 0.0, 1.0, 0.0);
     out_layer_grain = uvec2(0u);
     if (owner >= 0) {
-        vec2 gradient = PROFILE_SCALE * (distance_gradient(owner_i2, cell, frac, owner)
-                                         - distance_gradient(owner_i1, cell, frac, owner));
-        out_normal_height = vec4(normalize(vec3(-gradient, owner_profile)), owner_profile);
-        uint word = owner_i1 < 0 ? 0u : indexed_point(owner_i1, cell, frac, owner).word;
+        Point nearest = owner_i1 < 0 ? Point(vec2(0.0), 1.0, 0u)
+                                     : indexed_point(owner_i1, cell, frac, owner);
+        // The grain is the cap of a ball of radius² u_grain_reach2 around its feature point: its
+        // normal points from the ball's centre, straight up over the point (noise.py).
+        float cap = sqrt(max(u_grain_reach2 - dot(nearest.delta, nearest.delta),
+                             CAP_FLOOR * CAP_FLOOR * u_grain_reach2));
+        out_normal_height = vec4(normalize(vec3(nearest.delta, cap)), owner_profile);
+        uint word = nearest.word;
         out_layer_grain = uvec2(uint(owner + 1), word);
     }
 }

@@ -16,9 +16,11 @@ coverage per layer and gap fraction (measured by ``sand-editor bench generator``
 
 Per pixel and layer: F1 ≤ F2 are the two smallest squared distances (clamped to 1), the grain
 profile is ``n = 0.08 + 0.8·(√F2 − √F1)``, the layer has a grain where ``n > threshold`` and
-``10·roundness·F1 < 0.7``. The normal is ``normalize(−∇n, n)`` with the exact gradient
-``∇n = 0.8·(∇√F2 − ∇√F1)``, ``∇√F = (p − f)/√F`` (zero where F is clamped or zero). The first layer
-from the top with a grain owns the pixel.
+``F1 < R² = 0.7/(10·roundness)``: the slice lies inside the ball of radius R around the nearest
+feature point f. That ball is the grain's shape: its normal is
+``normalize(p − f, √(R² − |p − f|²))`` (up over the point, tilting outwards to the rim), so higher
+roundness means smaller, rounder grains whose facets face every direction, and low roundness
+broad, flatter caps. The first layer from the top with a grain owns the pixel.
 
 Hash
 ----
@@ -49,6 +51,11 @@ ANCHOR_DEPTH = 0.5
 PROFILE_OFFSET = 0.08
 PROFILE_SCALE = 0.8
 ROUNDNESS_LIMIT = 0.7
+# A grain is the cap of a ball of radius² grain_reach2 around its nearest feature point: its
+# normal is (p − f, √(reach² − |p − f|²)) normalised, so its facets face every direction of the
+# hemisphere that the slice leaves visible, most of them the sky. The vertical part is kept at
+# least this share of the radius (slopes at most about 20, as a grain's rim that the slice grazes).
+CAP_FLOOR = 0.05
 DARKENING_SLOPE = 0.624
 DARKENING_FLOOR = 0.4
 UNIT_8 = 1.0 / 256.0
@@ -137,6 +144,7 @@ SHADER_DEFINES = {
     "PROFILE_OFFSET": repr(PROFILE_OFFSET),
     "PROFILE_SCALE": repr(PROFILE_SCALE),
     "ANCHOR_DEPTH": repr(ANCHOR_DEPTH),
+    "CAP_FLOOR": repr(CAP_FLOOR),
     "KEY_STRIDE": f"{KEY_STRIDE}u",
     **{
         f"ANCHOR{k}": "vec2({!r}, {!r})".format(*(float(c) for c in anchor))

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from sand_editor.generator.noise import (
+    CAP_FLOOR,
     PROFILE_OFFSET,
     PROFILE_SCALE,
     NoiseConstants,
@@ -24,7 +25,7 @@ _CHUNK = 1 << 18
 
 
 def _nearest_two(nc: NoiseConstants, layer: int, cx, cy, fx, fy):
-    """F1, F2, the offsets p − f of the nearest two points, and the nearest's grain word.
+    """F1, F2, the offset p − f of the nearest point, and its grain word.
 
     Points are offered in the shader's order (``_NEIGHBOURS``, then point 0 before 1) with
     strict comparisons, so ties break alike in both backends wherever both compute the tied
@@ -35,7 +36,6 @@ def _nearest_two(nc: NoiseConstants, layer: int, cx, cy, fx, fy):
     f1 = np.ones(n)
     f2 = np.ones(n)
     delta1 = np.zeros((n, 2))
-    delta2 = np.zeros((n, 2))
     word1 = np.zeros(n, dtype=np.uint32)
     p = nc.period
     for ox, oy in _NEIGHBOURS:
@@ -48,21 +48,11 @@ def _nearest_two(nc: NoiseConstants, layer: int, cx, cy, fx, fy):
             nearest = f < f1
             second = ~nearest & (f < f2)
             f2 = np.where(nearest, f1, np.where(second, f, f2))
-            delta2 = np.where(nearest[:, None], delta1, delta2)
-            delta2[second, 0] = dx[second]
-            delta2[second, 1] = dy[second]
             f1 = np.where(nearest, f, f1)
             delta1[nearest, 0] = dx[nearest]
             delta1[nearest, 1] = dy[nearest]
             word1 = np.where(nearest, words[:, k], word1)
-    return f1, f2, delta1, delta2, word1
-
-
-def _distance_gradient(delta: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """∇√F = (p − f)/√F; zero at F = 0 (a pixel on a feature point at zero depth)."""
-    d = np.sqrt(f)
-    safe = np.where(d > 0, d, 1.0)
-    return np.where((d > 0)[:, None], delta / safe[:, None], 0.0)
+    return f1, f2, delta1, word1
 
 
 def evaluate(nc: NoiseConstants, size: int, xs: np.ndarray, ys: np.ndarray) -> dict:
@@ -95,17 +85,17 @@ def _evaluate_chunk(nc, size, xs, ys, out, offset) -> None:
     for layer in range(nc.layers):
         if todo.size == 0:
             break
-        f1, f2, delta1, delta2, word1 = _nearest_two(
-            nc, layer, cx[todo], cy[todo], fx[todo], fy[todo]
-        )
+        f1, f2, delta1, word1 = _nearest_two(nc, layer, cx[todo], cy[todo], fx[todo], fy[todo])
         profile = PROFILE_OFFSET + PROFILE_SCALE * (np.sqrt(f2) - np.sqrt(f1))
         grain = (profile > nc.threshold) & (f1 < nc.grain_reach2)
         owned = todo[grain]
-        gradient = PROFILE_SCALE * (
-            _distance_gradient(delta2[grain], f2[grain])
-            - _distance_gradient(delta1[grain], f1[grain])
-        )
-        normal = np.column_stack([-gradient, profile[grain]])
+        # The cap of the grain's ball (radius² grain_reach2) around its nearest feature point;
+        # with no point within reach (F1 clamped) the offset is 0 and the normal straight up.
+        delta = delta1[grain]
+        reach2 = nc.grain_reach2
+        floor2 = CAP_FLOOR * CAP_FLOOR * reach2
+        cap = np.sqrt(np.maximum(reach2 - np.einsum("ij,ij->i", delta, delta), floor2))
+        normal = np.column_stack([delta, cap])
         normal /= np.linalg.norm(normal, axis=1, keepdims=True)
         dst = owned + offset
         out["normal"][dst] = normal

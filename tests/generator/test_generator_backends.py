@@ -142,10 +142,30 @@ def test_pixel_centres_on_cell_corners(sand, strict_numpy):
         )
 
 
-def test_distance_gradient_at_zero_distance(strict_numpy):
-    delta = np.array([[0.0, 0.0], [0.3, -0.4], [0.0, 0.0]])
-    f = np.array([0.0, 0.25, 0.25])
-    gradient = reference._distance_gradient(delta, f)
-    np.testing.assert_array_equal(gradient[0], [0.0, 0.0])
-    np.testing.assert_allclose(gradient[1], [0.6, -0.8])
-    np.testing.assert_array_equal(gradient[2], [0.0, 0.0])
+def _tilt(tex, layer: int = 0) -> np.ndarray:
+    """Tilt from the vertical, in degrees, of a layer's grain pixels."""
+    normal = tex.normal[tex.layer == layer].astype(np.float64)
+    return np.degrees(np.arccos(np.clip(normal[:, 2], -1.0, 1.0)))
+
+
+def test_grains_are_ball_caps_whose_facets_face_the_sky(sand, strict_numpy):
+    # The normal of a grain pixel is that of the cap of a ball of radius² grain_reach2 around its
+    # nearest feature point: straight up over the point, tilting outwards to the rim, so that a
+    # good share of every grain faces the sky (cone-shaped grains left a hole there).
+    preset = sand.preset(roundness=0.28)
+    tex = sand.generate(preset, 256, "reference")
+    tilt = _tilt(tex)
+    assert (tilt < 10.0).mean() > 0.05
+    assert (tilt < 30.0).mean() > 0.3
+    assert (tilt > 45.0).mean() > 0.05
+    assert tilt.max() < 90.0
+
+
+def test_roundness_makes_grains_rounder(sand, strict_numpy):
+    # Higher roundness: smaller balls, so a grain's normals spread further from the vertical;
+    # low roundness gives broad, flatter caps.
+    medians = [
+        np.median(_tilt(sand.generate(sand.preset(roundness=r), 256, "reference")))
+        for r in (0.05, 0.28, 0.8)
+    ]
+    assert medians[0] < 15.0 < medians[1] < medians[2], medians

@@ -89,7 +89,11 @@ def test_no_nan_or_inf_anywhere(rows, explain):
 def test_at_most_one_percent_of_the_ground_is_clipped_white(rows, explain):
     # A view of a few grains is a view of stones: their mirror image of the sun may clip.
     held = [row for row in rows if _diffuse_led(row) and row["compared"]]
-    assert all(_diffuse_led(row) for row in rows if row["preset"] in SHIPPED)
+    # Under a high sun every shipped sand is mostly diffuse, so each is held here (black sand
+    # under a low sun sends back more glint than diffuse light, as dark sand does).
+    assert all(
+        _diffuse_led(row) for row in rows if row["preset"] in SHIPPED and row["sun"] == "noon"
+    )
     worst = max(held, key=lambda row: row["clipped"])
     assert worst["clipped"] <= 0.01, explain(worst)
 

@@ -155,7 +155,8 @@ def _shadow_and_lit_pixels(renderer, camera, light):
 @pytest.mark.gl
 @pytest.mark.parametrize("hours", [17.5, 22.0], ids=["sun", "moon"])
 def test_the_sphere_casts_its_shadow_on_the_sand(sand_renderer, gl_clean, hours):
-    sky = sky_at(hours)
+    # The sky's own light fills a shadow in; without it, the shadow holds back the direct light.
+    sky = dataclasses.replace(sky_at(hours), sky_irradiance=np.zeros(3, dtype=np.float32))
     _, light = shadow_light(sky)
     camera = _across_the_light(sand_renderer, 3.0, light)
     (sx, sy), (lx, ly) = _shadow_and_lit_pixels(sand_renderer, camera, light)
@@ -164,7 +165,7 @@ def test_the_sphere_casts_its_shadow_on_the_sand(sand_renderer, gl_clean, hours)
     without = _luminance(sand_renderer, camera, sky, False)
     window = np.s_[sy - 2 : sy + 3, sx - 2 : sx + 3]
     lit_window = np.s_[ly - 2 : ly + 3, lx - 2 : lx + 3]
-    assert with_shadows[window].mean() < 0.5 * without[window].mean()
+    assert with_shadows[window].mean() < 0.2 * without[window].mean()
     assert with_shadows[lit_window].mean() == pytest.approx(without[lit_window].mean(), rel=0.05)
     assert np.isfinite(with_shadows).all()
 
