@@ -1,14 +1,15 @@
 // Glints as the sun mirrored in grain facets, drawn per footprint cell (included by
 // sand_surface.glsl after common.glsl).
 //
-// A grain's surface is a mosaic of facets of the preset's facet size. A facet that mirrors the sun
-// into the eye shows the sun's radiance times quartz's Fresnel reflectance, R = F·E/Ω (E the
-// sun's irradiance, Ω its solid angle), over its own area: a pixel of area A holding k such
-// facets of area a gets k·R·a/A. The material's expected glint radiance L (the footprint's
-// slope moments) therefore fixes the chance that a facet mirrors, P = L/R, and the count in a
-// patch of N facets is binomial(N, P), Poisson for small P: its value L·k/(N·P) has expectation
-// L, so the sparkle keeps the expected-value filter's energy, and each sparkle is exactly as
-// bright as a real facet of that size mirroring the real sun.
+// A grain's surface is a mosaic of facets, the largest of the preset's facet size a and smaller
+// ones down to a/FACET_SIZE_RANGE (below). A facet that mirrors the sun into the eye shows the
+// sun's radiance times quartz's Fresnel reflectance, R = F·E/Ω (E the sun's irradiance, Ω its
+// solid angle), over its own area: a pixel of area A holding a facet of area a' gets R·a'/A.
+// The material's expected glint radiance L (the footprint's slope moments) therefore fixes the
+// chance that a facet mirrors, P = L/R, and the count in a patch of N facets is binomial(N, P),
+// Poisson for small P: its value L·Σa'/(N·P·ā) has expectation L, so the sparkle keeps the
+// expected-value filter's energy, and each sparkle is exactly as bright as a real facet of its
+// size mirroring the real sun.
 //
 // The draw is anchored on the ground: a patch is a cell of the ground's own grid (not the
 // tile's) as wide as a texel of a mip level near the pixel's footprint, hashed with its level
@@ -18,7 +19,15 @@
 // another half vector (the other eye) falls into another bin and draws other facets, as in
 // life.
 
-uniform float u_facet_size;  // edge of one facet of a grain, µm
+uniform float u_facet_size;  // edge of the largest facets of a grain, µm
+
+// Facet edges spread log-uniformly from the preset's size down to FACET_SIZE_RANGE times smaller
+// (#defined by material.py), each octave holding an equal share of the surface, as on a
+// fractured crystal's faces. Close up the small ones sparkle in many pixels, further away the
+// large ones still outshine their pixel.
+const float FACET_AREA_RANGE = FACET_SIZE_RANGE * FACET_SIZE_RANGE;
+// Facets in the area of one largest facet: ∫ d(ln r)/(r²·ln R) over r in [1/R, 1].
+const float FACETS_PER_LARGEST = (FACET_AREA_RANGE - 1.0) / (2.0 * log(FACET_SIZE_RANGE));
 
 float facet_size_m() { return u_facet_size * 1.0e-6; }
 const float LIGHT_ANGULAR_RADIUS = 0.00465; // the sun's (and the moon's) real angular radius
@@ -41,6 +50,11 @@ ivec2 half_vector_bin(vec2 b_half, vec2 offset) {
 
 // A uniform number in (0, 1), never 0 or 1.
 float open01(uint h) { return (float(h >> 8u) + 0.5) / 16777216.0; }
+
+// The area of a facet, in largest facets', from a hash: by number, 1/r² is uniform in [1, R²].
+float facet_area(uint h) {
+    return 1.0 / (1.0 + (FACET_AREA_RANGE - 1.0) * open01(h));
+}
 
 // A Poisson-distributed count of mean lambda from one hash, by inverting the distribution
 // function; past 24 the normal approximation (Box–Muller on two 16-bit halves).
@@ -81,8 +95,8 @@ struct Patches {
     bool valid;
     float level;          // of the patches (log2 of their edge in finest-level texels)
     float size;           // their edge in finest-level texels
-    float facets;         // facets in one patch
-    float pixel_facets;   // facets in the pixel's footprint
+    float facets;         // a patch's area in largest facets'
+    float pixel_facets;   // the footprint's area in largest facets'
     ivec2 first;          // the lower-left patch the footprint overlaps
     vec2 texel;           // the footprint's centre, finest-level texels of the ground
     vec2 extent;          // its bounding box
@@ -126,10 +140,12 @@ vec2 patch_centre(Patches p, ivec2 cell, float texture_size) {
     return (vec2(cell) + 0.5) * p.size / texture_size;
 }
 
-// How many of a patch's mirroring facets (Poisson, mean lambda: the patch's own facets times
-// their chance, a property of the patch alone) lie in the pixel's footprint. They are placed at
-// hashed points of the patch, so a sparkle crosses from pixel to pixel as the surface moves
-// under the camera, and the pixel's count is Poisson with its own mean, as real facets give.
+// The mirroring facets of a patch that lie in the pixel's footprint, as their area in largest
+// facets'. lambda is the patch's area in largest facets times their chance to mirror, a property
+// of the patch alone; the count is Poisson with FACETS_PER_LARGEST times that mean, each facet of
+// a hashed size, so the area's expectation is lambda. They are placed at hashed points of the
+// patch, so a sparkle crosses from pixel to pixel as the surface moves under the camera, and the
+// pixel's count is Poisson with its own mean, as real facets give.
 //   light: 0 sun, 1 moon (their facets are drawn independently)
 float facets_in_pixel(Patches p, ivec2 cell, float lambda, vec2 b_half, uint light) {
     if (!(lambda > 0.0)) return 0.0;
@@ -142,7 +158,7 @@ float facets_in_pixel(Patches p, ivec2 cell, float lambda, vec2 b_half, uint lig
     // expectation is kept and every pixel still counts points of its own, anchored in texture
     // space. (Drawing a pixel's share with a hash of the patch alone would give every pixel in
     // it the same quantile: the patch would show as a flat block.)
-    float facets = poisson_count(lambda, key);
+    float facets = poisson_count(lambda * FACETS_PER_LARGEST, key);
     float placed = min(facets, float(PLACED_FACETS));
     float weight = facets / max(placed, 1.0);
     float count = 0.0;
@@ -151,7 +167,8 @@ float facets_in_pixel(Patches p, ivec2 cell, float lambda, vec2 b_half, uint lig
         key = lowbias32(key + 0x9e3779b9u);
         vec2 at = (vec2(cell) + vec2(open01(key), open01(lowbias32(key)))) * p.size;
         vec2 ab = p.to_pixel * (at - p.texel);
-        count += abs(ab.x) <= 0.5 && abs(ab.y) <= 0.5 ? 1.0 : 0.0;
+        bool inside = abs(ab.x) <= 0.5 && abs(ab.y) <= 0.5;
+        count += inside ? facet_area(lowbias32(key ^ 0x68e31da4u)) : 0.0;
     }
     return count * weight;
 }

@@ -49,9 +49,13 @@ _SHADING_FIELDS = tuple(spec for spec in FIELDS if spec.section == "shading" and
 _MOMENT_FIELDS = tuple(spec for spec in _SHADING_FIELDS if spec.cost == "moments")
 # Width² of the slope hole that the moments record and the surface shader reads back.
 HOLE_SCALE2 = 0.25
+# Facet edges spread log-uniformly from the preset's facet size down to this many times smaller
+# (shaders/glint_facets.glsl).
+FACET_SIZE_RANGE = 4.0
 # Constants the material's shaders share with Python, as #defines: never copied by hand.
 SHADER_DEFINES = {
     "HOLE_SCALE2": repr(HOLE_SCALE2),
+    "FACET_SIZE_RANGE": repr(FACET_SIZE_RANGE),
     # The tallest a grain's profile gets: the top of the relief (material_build.frag).
     "PROFILE_TOP": repr(PROFILE_OFFSET + PROFILE_SCALE),
     "LAYER_COLOURS": MAX_LAYERS * 4,

@@ -1,7 +1,7 @@
 """The facet draw of glint_facets.glsl, run on its own: patches of the ground draw their own
-Poisson counts, also where a patch is wider than the texture's tile (far away, or a texture
-scale that makes the tile smaller than a facet). Drawn per tile, every such patch would share
-one draw: the whole ground would sparkle or stay dark at once."""
+Poisson counts of facets of random sizes, also where a patch is wider than the texture's tile
+(far away, or a texture scale that makes the tile smaller than a facet). Drawn per tile, every
+such patch would share one draw: the whole ground would sparkle or stay dark at once."""
 
 from __future__ import annotations
 
@@ -15,12 +15,18 @@ from sand_editor.gl import (
     shader_source,
     shader_text,
 )
+from sand_editor.render.material import FACET_SIZE_RANGE
 
 pytestmark = pytest.mark.gl
 
 CELLS = 64  # patches along each side of the image, one pixel each
 TEXTURE_SIZE = 256.0  # finest-level texels per tile
-LAMBDA = 4.0  # mirroring facets a patch holds on average
+LAMBDA = 1.0  # mirroring facets' area a patch holds on average, in largest facets'
+# Facets by number per largest facet's area, and the mean square of one's area (1/r² uniform in
+# [1, R²] by number: glint_facets.glsl).
+R2 = FACET_SIZE_RANGE**2
+PER_LARGEST = (R2 - 1.0) / (2.0 * np.log(FACET_SIZE_RANGE))
+AREA_SQUARED = 1.0 / R2
 
 _MAIN = """
 uniform float u_patch_texels;  // edge of a patch, finest-level texels
@@ -41,6 +47,7 @@ void main() {
 def _counts(ctx, patch_texels: float) -> np.ndarray:
     defines = (
         f"#define CELLS {CELLS}\n#define TEXTURE_SIZE {TEXTURE_SIZE}\n#define LAMBDA {LAMBDA}\n"
+        f"#define FACET_SIZE_RANGE {FACET_SIZE_RANGE!r}\n"
     )
     fragment = (
         "#version 330 core\n"
@@ -70,13 +77,16 @@ def _counts(ctx, patch_texels: float) -> np.ndarray:
 
 @pytest.mark.parametrize("tiles_per_patch", [1 / 16, 1.0, 4.0, 64.0])
 def test_each_patch_of_the_ground_draws_its_own_poisson_count(gl_clean, tiles_per_patch):
-    counts = _counts(gl_clean, TEXTURE_SIZE * tiles_per_patch)
-    assert np.all(counts == np.round(counts)) and counts.min() >= 0
-    # Poisson: mean and variance both LAMBDA (4096 patches: within 10 %).
-    assert counts.mean() == pytest.approx(LAMBDA, rel=0.1)
-    assert counts.var() == pytest.approx(LAMBDA, rel=0.15)
-    # Patches one tile apart (or less, when a patch is a tile or more) are not copies.
+    areas = _counts(gl_clean, TEXTURE_SIZE * tiles_per_patch)
+    assert areas.min() >= 0 and np.isfinite(areas).all()
+    # A Poisson count of facets of random sizes (4096 patches): the area's mean is LAMBDA (within
+    # 10 %), its variance the compound Poisson's, LAMBDA·(facets per largest)·E[area²] (15 %).
+    assert areas.mean() == pytest.approx(LAMBDA, rel=0.1)
+    assert areas.var() == pytest.approx(LAMBDA * PER_LARGEST * AREA_SQUARED, rel=0.15)
+    # No facet at all: e^(−mean count).
+    assert (areas == 0).mean() == pytest.approx(np.exp(-LAMBDA * PER_LARGEST), abs=0.01)
+    # Patches one tile apart (or less, when a patch is a tile or more) are not copies: two
+    # independent draws agree only when both hold no facet.
     step = max(int(round(1.0 / tiles_per_patch)), 1)
-    same = (counts[:, step:] == counts[:, :-step]).mean()
-    poisson = np.exp(-2 * LAMBDA) * np.i0(2 * LAMBDA)  # chance two draws agree
-    assert same < 1.5 * poisson
+    same = (areas[:, step:] == areas[:, :-step]).mean()
+    assert same < 0.01 + 2.0 * np.exp(-2.0 * LAMBDA * PER_LARGEST)

@@ -204,9 +204,11 @@ def test_sparkles_are_bright_few_and_where_the_expected_glint_is(probe):
     expected = _sparkles(probe, camera)
     lit = sparkle > 0
     assert 0 < lit.mean() < 0.2
-    # A sparkle only where some grain can glint there, and far above that pixel's expectation.
+    # A sparkle only where some grain can glint there, and above that pixel's expectation.
     assert (expected[lit] > 0).all()
-    assert np.median(sparkle[lit] / expected[lit]) > 5
+    # Facets come in sizes: the small ones lift their pixel a little, the large ones far more.
+    ratio = sparkle[lit] / expected[lit]
+    assert np.median(ratio) > 1.5 and np.quantile(ratio, 0.75) > 4
 
 
 def test_sparkles_stay_on_the_surface_under_sub_pixel_camera_motion(probe):
@@ -276,11 +278,14 @@ def test_sparkles_appear_where_the_ground_truth_has_them_with_its_statistics(fin
     # Per-pixel spread and energy of the ground truth's sparkles.
     cv = {name: img.std() / img.mean() for name, img in (("ours", ours), ("truth", truth))}
     assert abs(cv["ours"] / cv["truth"] - 1) < 0.3, cv
-    # With every grain clear, the footprint moments' Gaussian-with-hole holds 19 % less light
-    # than the exact texels here (by expectation: 0.81), and this small probe draws only about
-    # a hundred sparkles; measured: energy 0.60, sparkling pixels 0.63 of the ground truth's.
+    # With every grain clear, the footprint moments' Gaussian-with-hole holds less light than the
+    # exact texels here, and this small probe draws only a few hundred sparkles. A patch spreads
+    # its chance evenly over its facets, where the truth's facets mirror on the grains that face
+    # the half vector: with about five facets to a largest facet's area (their sizes), the
+    # truth's crowd into fewer pixels. Measured: energy 0.84, spread 0.82 and sparkling pixels
+    # 1.52 of the ground truth's (with one size of facet: 0.76, 1.06 and 0.87).
     assert abs(ours.mean() / truth.mean() - 1) < 0.5
-    assert abs((ours > 0).mean() / (truth > 0).mean() - 1) < 0.5
+    assert 0.5 < (ours > 0).mean() / (truth > 0).mean() < 2.0
     expected_ours = _lower_half_glints(fine_probe, "ours-mean", 1.0)
     assert abs(expected_ours.mean() / expected.mean() - 1) < 0.25
     # Where the ground truth sparkles more (bands of the view whose half vectors meet more

@@ -4,9 +4,10 @@
 //
 // Filters: 0 ours (sparkles drawn from the footprint's moments); 1 the expected value of those
 // moments alone; 2 the reference's N×N multisampling of mipmapped normals; 3 none (one tap of the
-// finest level); 4 ground truth (every facet in the pixel, explicitly); 5 and 6: the expectations
+// finest level); 4 ground truth (every facet in the pixel, explicitly, of its own size); 5 and 6: the expectations
 // of 0 and 4 over their draws (no sparkle), which measure energy free of the draws' noise; 7 the
-// density that one mirroring facet of filter 0 gives its pixel (the draw's unit).
+// density that one mirroring facet of filter 0, of the largest size, gives its pixel (the draw's
+// largest unit).
 uniform int u_glint_filter;
 // The reference's kernel: N×N taps, this many pixels apart (its saved preview material).
 const int REFERENCE_SAMPLES = 7;
@@ -26,9 +27,25 @@ vec2 stratum_offset(int i, int j, int k) {
 // n-th row and column (only far views, where a pixel holds tens of thousands of facets).
 const int GROUND_TRUTH_FACETS = 128;
 
-// Whether a facet mirrors each light: with the chance its grain's facet density gives it (at
-// its centre, on the finest level), drawn anew in every half-vector bin; without `draw`, the
-// chance.
+// The area (in largest facets') of the facets of one largest facet's cell that mirror a light:
+// the cell holds a Poisson number of facets of random sizes, as the draw assumes
+// (glint_facets.glsl), each mirroring on its own with the chance. `surface` keys the facets,
+// `bin` their mirror states in the half vector's bin.
+float mirrored_area(uint surface, uint bin, float chance) {
+    float count = poisson_count(FACETS_PER_LARGEST, surface);
+    float area = 0.0;
+    for (int k = 0; k < 64; ++k) {
+        if (float(k) >= count) break;
+        surface = lowbias32(surface + 0x9e3779b9u);
+        bin = lowbias32(bin + 0x9e3779b9u);
+        area += open01(bin) < chance ? facet_area(surface) : 0.0;
+    }
+    return area;
+}
+
+// The light the facets of a largest facet's cell mirror, for each light: with the chance its
+// grain's facet density gives them (at the cell's centre, on the finest level), drawn anew in
+// every half-vector bin; without `draw`, the chance.
 vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
     // The finest level as the renderer shows it up close: texels interpolated.
     vec2 tc = (vec2(facet) + 0.5) / per_tile;
@@ -42,14 +59,14 @@ vec2 facet_mirrors(ivec2 facet, float per_tile, Footprint f, bool draw) {
     vec2 mirrors = vec2(0.0);
     if (h0.valid) {
         float chance = min(mirror_chance(w * facet_density(b, h0.slope, h0.variance), h0), 1.0);
-        float u = open01(hash_cell(half_vector_bin(h0.slope, offset), key));
-        mirrors.x = draw ? (u < chance ? 1.0 : 0.0) : chance;
+        uint bin = hash_cell(half_vector_bin(h0.slope, offset), key);
+        mirrors.x = draw ? mirrored_area(key, bin, chance) : chance;
     }
     if (h1.valid) {
         float chance = min(mirror_chance(w * facet_density(b, h1.slope, h1.variance), h1), 1.0);
         uint moon_key = lowbias32(key ^ 0x9e3779b9u);
-        float u = open01(hash_cell(half_vector_bin(h1.slope, offset), moon_key));
-        mirrors.y = draw ? (u < chance ? 1.0 : 0.0) : chance;
+        uint bin = hash_cell(half_vector_bin(h1.slope, offset), moon_key);
+        mirrors.y = draw ? mirrored_area(key, bin, chance) : chance;
     }
     return mirrors;
 }
