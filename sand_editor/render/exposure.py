@@ -16,7 +16,7 @@ import numpy as np
 
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 LIGHT_ADAPTATION = 0.5  # exposure ∝ (light)^−this: partial adaptation keeps night darker
-EXPOSURE_KEY = 4.8  # a mid-grey sand under the noon sun shows as about the reference's
+EXPOSURE_KEY = 2.5  # a grey card (albedo 0.18) under the noon sun displays 0.18, as metered
 SCENE_ADAPTATION = 0.2  # and ∝ (scene / mid-grey)^−this: a fifth of the way, on a log scale
 MID_GREY = 0.18
 MAX_SCENE_FACTOR = 4.0  # the scene moves the exposure by at most this, either way
