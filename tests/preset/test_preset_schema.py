@@ -47,8 +47,14 @@ def test_migrations_leave_their_input_alone():
 
 def test_schema_2_paper_default_is_the_shipped_one():
     # The look of the reference's material survives the move to the facet model.
+    # The shipped one blends close and far at the reference shader's default distance rather
+    # than its saved material's, and says so.
     old = Preset.load(Path(__file__).resolve().parent / "data" / "paper-default-schema2.json")
-    assert old == Preset.load(PRESETS[[p.stem for p in PRESETS].index("paper-default")])
+    shipped = Preset.load(PRESETS[[p.stem for p in PRESETS].index("paper-default")])
+    assert (old.shading.sigmoid_a, old.shading.sigmoid_b) == (2.0, 0.0)
+    assert (shipped.shading.sigmoid_a, shipped.shading.sigmoid_b) == (3.0, 2.0)
+    blend = {"shading.sigmoid_a": 3.0, "shading.sigmoid_b": 2.0, "description": shipped.description}
+    assert old.replace(**blend) == shipped
 
 
 @pytest.mark.parametrize("path", SCHEMA_2, ids=lambda path: path.stem)
