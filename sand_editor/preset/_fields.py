@@ -219,7 +219,9 @@ FIELDS: tuple[FieldSpec, ...] = (
     _generation("threshold", "float", 0.0, 1.0, 0.296, "Threshold",
                 "Spacing between grains; higher values need more layers to fill the gaps."),
     _generation("roundness", "float", 0.0, 1.0, 0.28, "Roundness",
-                "Trims each grain to a disc around its centre; higher is smaller, rounder."),
+                "Each grain is the cap of a ball around its centre: higher makes the balls "
+                "smaller, so grains are smaller and rounder and face every way; lower gives "
+                "broad, flat-topped grains."),
     _generation("seed", "int", 0, 2**32 - 1, 270, "Seed",
                 "Picks a different arrangement of grains and colours."),
     _generation("base_color", "color", 0, 255, _hex("#ffd7c4"), "Base colour",
@@ -240,8 +242,9 @@ FIELDS: tuple[FieldSpec, ...] = (
              "low is glassy, with small, sharp, bright glints; high is frosted, with broad, "
              "dim ones."),
     _shading("facet_size", "float", 20.0, 1000.0, 200.0, "Facet size",
-             "Edge of the tiny mirror-like facets of a grain's surface: small facets give many "
-             "faint sparkles, large ones few bright ones, with the same light on average.",
+             "Edge of the largest of the tiny mirror-like facets of a grain's surface (smaller "
+             "ones reach a quarter of it): small facets give many faint sparkles, large ones few "
+             "bright ones, with the same light on average.",
              unit="µm"),
     _shading("clear_grains", "float", 0.0, 1.0, 1.0, "Clear grains",
              "Share of the top layer's grains that are clear enough to mirror the sun: how "
