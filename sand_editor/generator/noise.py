@@ -38,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sand_editor.preset import GRAINS_PER_CELL
+
 MAX_LAYERS = 15
 PALETTE_SIZE = 4
 # Where the two points of a cell sit when jitter is 0: a regular diagonal packing.
@@ -59,7 +61,7 @@ CAP_FLOOR = 0.05
 DARKENING_SLOPE = 0.624
 DARKENING_FLOOR = 0.4
 UNIT_8 = 1.0 / 256.0
-KEY_STRIDE = 32  # keys per cell: two points for each of up to 16 layers
+KEY_STRIDE = 16 * GRAINS_PER_CELL  # keys per cell: a point per grain for each of up to 16 layers
 
 _U32 = np.uint32
 

@@ -22,6 +22,9 @@ Kind = Literal["float", "int", "color", "colors", "weights", "text"]
 # from the grains), or only a uniform of the same name with a ``u_`` prefix.
 Cost = Literal["grains", "moments", "uniform", "none"]
 
+# Grains in each cell of a generated layer: the generator draws two feature points per cell.
+GRAINS_PER_CELL = 2
+
 
 @dataclass(frozen=True)
 class FieldSpec:
@@ -244,7 +247,8 @@ FIELDS: tuple[FieldSpec, ...] = (
     _shading("facet_size", "float", 20.0, 1000.0, 200.0, "Facet size",
              "Edge of the largest of the tiny mirror-like facets of a grain's surface (smaller "
              "ones reach a quarter of it): small facets give many faint sparkles, large ones few "
-             "bright ones, with the same light on average.",
+             "bright ones, with the same light on average. Never wider than a grain: on sand whose "
+             "grains are smaller, the largest facets are a grain wide.",
              unit="µm"),
     _shading("clear_grains", "float", 0.0, 1.0, 1.0, "Clear grains",
              "Share of the top layer's grains that are clear enough to mirror the sun: how "

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -10,7 +11,13 @@ from typing import Any, ClassVar
 from sand_editor.preset._checks import describe, type_name
 from sand_editor.preset._document import SECTIONS, decode, encode
 from sand_editor.preset._errors import PresetError
-from sand_editor.preset._fields import FIELDS, field_spec, section_fields, unknown_field
+from sand_editor.preset._fields import (
+    FIELDS,
+    GRAINS_PER_CELL,
+    field_spec,
+    section_fields,
+    unknown_field,
+)
 from sand_editor.preset._io import read_json, write_json_atomic
 
 
@@ -96,6 +103,20 @@ class Preset:
         spec = field_spec(path)
         owner = getattr(self, spec.section) if spec.section else self
         return getattr(owner, spec.name)
+
+    @property
+    def grain_spacing_m(self) -> float:
+        """Mean distance between neighbouring grains of a layer, in metres on the ground: a tile
+        is 1/uv_scale metres of ``period`` cells, each holding two grains."""
+        cell_m = 1.0 / (self.shading.uv_scale * self.generation.period)
+        return cell_m / math.sqrt(GRAINS_PER_CELL)
+
+    @property
+    def largest_facet_m(self) -> float:
+        """Edge of a grain's largest mirroring facets, in metres: the facet size, but never wider
+        than a grain, whose surface the facets tile (tiny grains with the largest facet size
+        would otherwise mirror the sun in rare facets far larger than themselves)."""
+        return min(self.shading.facet_size * 1.0e-6, self.grain_spacing_m)
 
     def replace(self, **changes: Any) -> Preset:
         """Return a copy with some values changed.

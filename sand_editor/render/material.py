@@ -316,6 +316,7 @@ class SandMaterial:
             set_uniform(program, name, first_unit + offset)
         unit = first_unit + len(units)
         values = {spec.uniform: self.preset.get(spec.path) for spec in _SHADING_FIELDS}
+        values["u_facet_size"] = self.preset.largest_facet_m * 1.0e6
         values.update(
             u_average_albedo=tuple(float(c) for c in self.average_albedo),
             **sphere_constants(self.average_albedo),

@@ -113,3 +113,20 @@ def test_get_reads_dotted_paths_and_sections():
     assert preset.get("name") == "paper-default"
     with pytest.raises(PresetError, match="unknown field"):
         preset.get("generation.nope")
+
+
+def test_the_largest_facets_are_never_wider_than_a_grain():
+    preset = Preset()
+    # paper-default's scale: grains 2.5 mm apart, so the 200 µm facets are the preset's.
+    assert preset.grain_spacing_m == pytest.approx(1.0 / (8.0 * 36.0 * math.sqrt(2.0)))
+    assert preset.largest_facet_m == pytest.approx(200e-6)
+    # 10 000 tiles per metre of 256 cells: grains 0.28 µm apart; 1 mm facets would be 3600
+    # grains wide, so the grain's width bounds them.
+    tiny = preset.replace(**{"shading.uv_scale": 10_000.0, "generation.period": 256,
+                             "shading.facet_size": 1000.0})  # fmt: skip
+    assert tiny.largest_facet_m == pytest.approx(tiny.grain_spacing_m)
+    assert tiny.largest_facet_m < 1e-6
+    # At the crossing the two agree, and the bound moves with either field.
+    for uv_scale in (0.01, 1.0, 50.0, 1000.0):
+        p = preset.replace(**{"shading.uv_scale": uv_scale})
+        assert p.largest_facet_m == pytest.approx(min(200e-6, p.grain_spacing_m))
