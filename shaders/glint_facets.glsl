@@ -135,6 +135,17 @@ bool patch_overlaps(Patches p, ivec2 cell) {
     return all(greaterThan(hi, lo));
 }
 
+// The share of a patch's area that lies in the pixel's footprint, taken from the footprint's
+// bounding box (which the 2×2 patches tile, so the shares of a footprint's patches add up to its
+// own area exactly).
+float patch_share(Patches p, ivec2 cell) {
+    vec2 lo = max(vec2(cell) * p.size, p.texel - 0.5 * p.extent);
+    vec2 hi = min(vec2(cell + 1) * p.size, p.texel + 0.5 * p.extent);
+    vec2 side = max(hi - lo, vec2(0.0));
+    float box = max(p.extent.x * p.extent.y, 1e-30);
+    return side.x * side.y / box * (p.pixel_facets / p.facets);
+}
+
 // Texture coordinates (tiles) of a patch's centre: where its mip texel is.
 vec2 patch_centre(Patches p, ivec2 cell, float texture_size) {
     return (vec2(cell) + 0.5) * p.size / texture_size;
@@ -170,5 +181,13 @@ float facets_in_pixel(Patches p, ivec2 cell, float lambda, vec2 b_half, uint lig
         bool inside = abs(ab.x) <= 0.5 && abs(ab.y) <= 0.5;
         count += inside ? facet_area(lowbias32(key ^ 0x68e31da4u)) : 0.0;
     }
-    return count * weight;
+    count *= weight;
+    if (facets <= float(PLACED_FACETS)) return count;
+    // The stand-ins spread a pixel's count as PLACED_FACETS points would, √(facets/placed) times
+    // wider than the facets they stand for: a pixel of millions of mirroring facets would show
+    // the noise of sixteen. Their deviation from the pixel's mean area (the patch's facets over
+    // its share in the footprint, each facet 1/FACETS_PER_LARGEST on average) is narrowed to
+    // that of the facets themselves, which keeps the mean.
+    float mean = facets / FACETS_PER_LARGEST * patch_share(p, cell);
+    return max(mean + (count - mean) * sqrt(placed / facets), 0.0);
 }

@@ -44,9 +44,10 @@ void main() {
 """
 
 
-def _counts(ctx, patch_texels: float) -> np.ndarray:
+def _counts(ctx, patch_texels: float, mean_area: float = LAMBDA) -> np.ndarray:
     defines = (
-        f"#define CELLS {CELLS}\n#define TEXTURE_SIZE {TEXTURE_SIZE}\n#define LAMBDA {LAMBDA}\n"
+        f"#define CELLS {CELLS}\n#define TEXTURE_SIZE {TEXTURE_SIZE}\n"
+        f"#define LAMBDA {mean_area!r}\n"
         f"#define FACET_SIZE_RANGE {FACET_SIZE_RANGE!r}\n"
     )
     fragment = (
@@ -90,3 +91,13 @@ def test_each_patch_of_the_ground_draws_its_own_poisson_count(gl_clean, tiles_pe
     step = max(int(round(1.0 / tiles_per_patch)), 1)
     same = (areas[:, step:] == areas[:, :-step]).mean()
     assert same < 0.01 + 2.0 * np.exp(-2.0 * LAMBDA * PER_LARGEST)
+
+
+@pytest.mark.parametrize("mean_area", [30.0, 1000.0, 1.0e6])
+def test_many_facets_in_a_pixel_vary_as_many_facets_do(gl_clean, mean_area):
+    # Past 16 mirroring facets a patch places 16 stand-ins; a pixel of thousands or millions of
+    # facets must still vary as that many do (relative spread 1/√count), not as sixteen.
+    areas = _counts(gl_clean, TEXTURE_SIZE / 4.0, mean_area)
+    assert np.isfinite(areas).all() and areas.min() >= 0
+    assert areas.mean() == pytest.approx(mean_area, rel=0.02)
+    assert areas.var() == pytest.approx(mean_area * PER_LARGEST * AREA_SQUARED, rel=0.15)
