@@ -33,10 +33,18 @@ float facet_variance() {
     return 0.5 * a * a;
 }
 
-// The density at b_half of one grain point's facet slopes (about slope b).
+// The density at b_half of one grain point's facet slopes: Beckmann about the grain's normal
+// (slope b), D(m)·m_z⁴/cos θ_grain in slope space, which integrates to 1 for every grain
+// (render/facet_lobe.py's rotated_density).
 float facet_density(vec2 b, vec2 b_half, float variance) {
-    vec2 d = b - b_half;
-    return exp(-0.5 * dot(d, d) / variance) / (2.0 * PI * variance);
+    float sb = 1.0 + dot(b, b_half);
+    if (sb < 1e-6) return 0.0;
+    vec2 d = b_half - b;
+    float cross_sb = b_half.x * b.y - b_half.y * b.x;
+    float tan2 = (dot(d, d) + cross_sb * cross_sb) / (sb * sb);
+    float tilt = 1.0 + dot(b, b);
+    float jacobian = tilt * tilt * sqrt(tilt) / (sb * sb * sb * sb);
+    return jacobian * exp(-0.5 * tan2 / variance) / (2.0 * PI * variance);
 }
 
 // The w-weighted slope distribution of a footprint as LEAN mapping sees it: mass, mean and
@@ -91,9 +99,34 @@ float expected_glint(SlopeMoments s, vec2 b_half, float variance) {
     return s.w * max((1.0 + k) * gaussian - k * hole, 0.0);
 }
 
+// A grain's facets spread about its normal, a lobe that tilts with the grain; the moments can
+// only shear it to the grain's slope. The ratio of the two lobes' light over the tile's clear
+// grains, per facet roughness (rows, log-spaced LOBE_ALPHA_MIN…LOBE_ALPHA_MAX) and half-vector
+// tilt (columns, 0…LOBE_TILT_MAX), measured by material.py (render/facet_lobe.py); below the
+// first row the departure from 1 shrinks as α².
+uniform float u_lobe_correction[LOBE_ALPHAS * LOBE_TILTS];
+
+float lobe_correction(vec2 b_half, float variance) {
+    float alpha = sqrt(2.0 * variance);
+    float row = log(max(alpha, LOBE_ALPHA_MIN) / LOBE_ALPHA_MIN)
+              / log(LOBE_ALPHA_MAX / LOBE_ALPHA_MIN) * float(LOBE_ALPHAS - 1);
+    float column = atan(length(b_half)) / LOBE_TILT_MAX * float(LOBE_TILTS - 1);
+    row = clamp(row, 0.0, float(LOBE_ALPHAS - 1));
+    column = clamp(column, 0.0, float(LOBE_TILTS - 1));
+    int r0 = int(row), c0 = int(column);
+    int r1 = min(r0 + 1, LOBE_ALPHAS - 1), c1 = min(c0 + 1, LOBE_TILTS - 1);
+    float fr = row - float(r0), fc = column - float(c0);
+    float low = mix(u_lobe_correction[r0 * LOBE_TILTS + c0], u_lobe_correction[r0 * LOBE_TILTS + c1], fc);
+    float high = mix(u_lobe_correction[r1 * LOBE_TILTS + c0], u_lobe_correction[r1 * LOBE_TILTS + c1], fc);
+    float ratio = mix(low, high, fr);
+    float smooth_share = min(alpha / LOBE_ALPHA_MIN, 1.0);
+    return 1.0 + (ratio - 1.0) * smooth_share * smooth_share;
+}
+
 // The footprint's density of mirroring facet slopes at b_half (the D above).
 float mirror_density(SlopeMoments s, vec2 b_half, float variance) {
-    return expected_glint(s, b_half, variance) / (2.0 * PI * variance);
+    return expected_glint(s, b_half, variance) / (2.0 * PI * variance)
+         * lobe_correction(b_half, variance);
 }
 
 // Half vector slope of a light and view in tangent space; false where no grain facing up can

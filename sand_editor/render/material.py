@@ -33,6 +33,12 @@ from sand_editor.gl import (
     set_uniform,
 )
 from sand_editor.preset import FIELDS, Preset
+from sand_editor.render.facet_lobe import (
+    LOBE_ALPHAS,
+    LOBE_TILT_MAX_DEG,
+    LOBE_TILTS_DEG,
+    lobe_correction,
+)
 from sand_editor.render.far_brdf import sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
 from sand_editor.render.shadows import CASCADES
@@ -52,6 +58,8 @@ HOLE_SCALE2 = 0.25
 # Facet edges spread log-uniformly from the preset's facet size down to this many times smaller
 # (shaders/glint_facets.glsl).
 FACET_SIZE_RANGE = 4.0
+# The mip level whose clear-grain slopes measure the facet lobe's correction (facet_lobe.py).
+LOBE_LEVEL = 2
 # Constants the material's shaders share with Python, as #defines: never copied by hand.
 SHADER_DEFINES = {
     "HOLE_SCALE2": repr(HOLE_SCALE2),
@@ -61,6 +69,11 @@ SHADER_DEFINES = {
     "LAYER_COLOURS": MAX_LAYERS * 4,
     "MAX_LAYERS": MAX_LAYERS,
     "SHADOW_CASCADES": CASCADES,
+    "LOBE_ALPHAS": LOBE_ALPHAS.size,
+    "LOBE_TILTS": LOBE_TILTS_DEG.size,
+    "LOBE_ALPHA_MIN": repr(float(LOBE_ALPHAS[0])),
+    "LOBE_ALPHA_MAX": repr(float(LOBE_ALPHAS[-1])),
+    "LOBE_TILT_MAX": repr(float(np.radians(LOBE_TILT_MAX_DEG))),
 }
 
 
@@ -130,6 +143,7 @@ class SandMaterial:
         self.preset: Preset | None = None  # whose shading is bound
         self.grains_generation = None  # the generation parameters of the grains held
         self.average_albedo = np.zeros(3, dtype=np.float32)
+        self.lobe_correction = np.ones((LOBE_ALPHAS.size, LOBE_TILTS_DEG.size))
         self.close_cutoff = CLOSE_CUTOFF
         self._owned = GLObjects()
         keep = self._owned.keep
@@ -285,6 +299,19 @@ class SandMaterial:
         texel = np.frombuffer(read_without_gil(self.albedo, level=top), dtype=np.float16)
         texel = texel.astype(np.float32)
         self.average_albedo = texel[:3].copy()
+        self.lobe_correction = self._measure_lobe_correction()
+
+    def _measure_lobe_correction(self) -> np.ndarray:
+        """The rotated facet lobe's light over the slope moments' (facet_lobe.py), measured on
+        the clear grains' slopes of a level LOBE_LEVEL texels finer than 4 apart (a grain spans
+        tens of texels there, so its slopes are kept)."""
+        level = min(LOBE_LEVEL, int(self.max_lod))
+        side = max(self.texture_size >> level, 1)
+        texels = np.frombuffer(read_without_gil(self.glint_moments, level=level), dtype=np.float32)
+        texels = texels.reshape(side * side, 4).astype(np.float64)
+        weights = texels[:, 0]
+        slopes = texels[:, 1:3] / np.where(weights > 0.0, weights, 1.0)[:, None]
+        return lobe_correction(slopes, weights)
 
     @property
     def close_limit(self) -> float:
@@ -328,6 +355,8 @@ class SandMaterial:
         )
         for name, value in values.items():
             set_uniform(program, name, value)
+        lobe = tuple(float(c) for c in self.lobe_correction.flat)
+        set_uniform(program, "u_lobe_correction", lobe)
         return unit
 
     def release(self) -> None:
