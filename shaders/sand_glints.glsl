@@ -100,33 +100,20 @@ float expected_glint(SlopeMoments s, vec2 b_half, float variance) {
 }
 
 // A grain's facets spread about its normal, a lobe that tilts with the grain; the moments can
-// only shear it to the grain's slope. The ratio of the two lobes' light over the tile's clear
-// grains, per facet roughness (rows, log-spaced LOBE_ALPHA_MIN…LOBE_ALPHA_MAX) and half-vector
-// tilt (columns, 0…LOBE_TILT_MAX), measured by material.py (render/facet_lobe.py); below the
-// first row the departure from 1 shrinks as α².
-uniform float u_lobe_correction[LOBE_ALPHAS * LOBE_TILTS];
+// only shift it to the grain's slope. The ratio of the two lobes' light over the tile's clear
+// grains at the facets' roughness, per half-vector tilt (0…LOBE_TILT_MAX, LOBE_TILTS steps),
+// measured by material.py (render/facet_lobe.py).
+uniform float u_lobe_correction[LOBE_TILTS];
 
-float lobe_correction(vec2 b_half, float variance) {
-    float alpha = sqrt(2.0 * variance);
-    float row = log(max(alpha, LOBE_ALPHA_MIN) / LOBE_ALPHA_MIN)
-              / log(LOBE_ALPHA_MAX / LOBE_ALPHA_MIN) * float(LOBE_ALPHAS - 1);
-    float column = atan(length(b_half)) / LOBE_TILT_MAX * float(LOBE_TILTS - 1);
-    row = clamp(row, 0.0, float(LOBE_ALPHAS - 1));
-    column = clamp(column, 0.0, float(LOBE_TILTS - 1));
-    int r0 = int(row), c0 = int(column);
-    int r1 = min(r0 + 1, LOBE_ALPHAS - 1), c1 = min(c0 + 1, LOBE_TILTS - 1);
-    float fr = row - float(r0), fc = column - float(c0);
-    float low = mix(u_lobe_correction[r0 * LOBE_TILTS + c0], u_lobe_correction[r0 * LOBE_TILTS + c1], fc);
-    float high = mix(u_lobe_correction[r1 * LOBE_TILTS + c0], u_lobe_correction[r1 * LOBE_TILTS + c1], fc);
-    float ratio = mix(low, high, fr);
-    float smooth_share = min(alpha / LOBE_ALPHA_MIN, 1.0);
-    return 1.0 + (ratio - 1.0) * smooth_share * smooth_share;
+float lobe_correction(vec2 b_half) {
+    float column = clamp(atan(length(b_half)) / LOBE_TILT_MAX, 0.0, 1.0) * float(LOBE_TILTS - 1);
+    int c0 = min(int(column), LOBE_TILTS - 2);
+    return mix(u_lobe_correction[c0], u_lobe_correction[c0 + 1], column - float(c0));
 }
 
 // The footprint's density of mirroring facet slopes at b_half (the D above).
 float mirror_density(SlopeMoments s, vec2 b_half, float variance) {
-    return expected_glint(s, b_half, variance) / (2.0 * PI * variance)
-         * lobe_correction(b_half, variance);
+    return expected_glint(s, b_half, variance) / (2.0 * PI * variance) * lobe_correction(b_half);
 }
 
 // Half vector slope of a light and view in tangent space; false where no grain facing up can

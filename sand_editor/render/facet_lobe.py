@@ -15,7 +15,8 @@ smooth facets on flat grains and part as either tilts: on the shipped sands' bal
 half vectors a sunlit view sees, the rotated lobe holds 0–15 % more light (most for rough facets).
 
 ``lobe_correction`` measures that ratio over a tile's clear grains for a grid of facet
-roughnesses and half-vector tilts; the shader multiplies the moments' density by it
+roughnesses and half-vector tilts; ``lobe_row`` takes the preset's roughness from it, and the
+shader multiplies the moments' density by that row at the half vector's tilt
 (``shaders/sand_glints.glsl``), so the far shading and the sparkles hold the rotated lobe's light.
 """
 
@@ -94,3 +95,16 @@ def lobe_correction(slopes: np.ndarray, weights: np.ndarray, seed: int = 0) -> n
     floor = _TAIL * sheared.max(axis=1, keepdims=True)
     table = (rotated + floor) / (sheared + floor)
     return np.clip(table, *LOBE_RANGE)
+
+
+def lobe_row(table: np.ndarray, alpha: float) -> np.ndarray:
+    """The table's correction over the half-vector tilts for facet roughness ``alpha``: linear
+    in log α between rows, and below the first row its departure from 1 scaled by
+    (α/LOBE_ALPHAS[0])² (both lobes tend to the grains' own slopes as α → 0)."""
+    logs = np.log(LOBE_ALPHAS)
+    position = np.interp(np.log(max(alpha, LOBE_ALPHAS[0])), logs, np.arange(LOBE_ALPHAS.size))
+    low = int(np.floor(position))
+    high = min(low + 1, LOBE_ALPHAS.size - 1)
+    row = table[low] + (table[high] - table[low]) * (position - low)
+    smooth = min(alpha / LOBE_ALPHAS[0], 1.0) ** 2
+    return 1.0 + (row - 1.0) * smooth

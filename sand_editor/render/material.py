@@ -38,6 +38,7 @@ from sand_editor.render.facet_lobe import (
     LOBE_TILT_MAX_DEG,
     LOBE_TILTS_DEG,
     lobe_correction,
+    lobe_row,
 )
 from sand_editor.render.far_brdf import sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
@@ -69,10 +70,7 @@ SHADER_DEFINES = {
     "LAYER_COLOURS": MAX_LAYERS * 4,
     "MAX_LAYERS": MAX_LAYERS,
     "SHADOW_CASCADES": CASCADES,
-    "LOBE_ALPHAS": LOBE_ALPHAS.size,
     "LOBE_TILTS": LOBE_TILTS_DEG.size,
-    "LOBE_ALPHA_MIN": repr(float(LOBE_ALPHAS[0])),
-    "LOBE_ALPHA_MAX": repr(float(LOBE_ALPHAS[-1])),
     "LOBE_TILT_MAX": repr(float(np.radians(LOBE_TILT_MAX_DEG))),
 }
 
@@ -355,7 +353,8 @@ class SandMaterial:
         )
         for name, value in values.items():
             set_uniform(program, name, value)
-        lobe = tuple(float(c) for c in self.lobe_correction.flat)
+        alpha = self.preset.shading.facet_roughness
+        lobe = tuple(float(c) for c in lobe_row(self.lobe_correction, alpha))
         set_uniform(program, "u_lobe_correction", lobe)
         return unit
 

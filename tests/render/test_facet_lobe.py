@@ -14,6 +14,7 @@ from sand_editor.render.facet_lobe import (
     LOBE_RANGE,
     LOBE_TILTS_DEG,
     lobe_correction,
+    lobe_row,
     rotated_density,
     sheared_density,
 )
@@ -88,6 +89,19 @@ def test_the_correction_of_ball_caps_grows_with_roughness_and_stays_finite():
     zenith = table[:, 0]
     assert np.all(np.diff(zenith) > 0.0)
     assert 1.0 < zenith[0] < 1.1 and zenith[-1] > 1.8
+
+
+def test_a_roughness_takes_its_row_between_the_tables():
+    table = 1.0 + np.outer(np.arange(1.0, 1.0 + LOBE_ALPHAS.size), np.linspace(0.1, 0.2, 13))
+    for i, alpha in enumerate(LOBE_ALPHAS):
+        assert lobe_row(table, alpha) == pytest.approx(table[i])
+    # Halfway between two rows in log α: halfway between the rows.
+    middle = np.sqrt(LOBE_ALPHAS[1] * LOBE_ALPHAS[2])
+    assert lobe_row(table, middle) == pytest.approx(0.5 * (table[1] + table[2]))
+    # Smoother facets than the first row: its departure from 1 by (α/α₀)².
+    half = 0.5 * LOBE_ALPHAS[0]
+    assert lobe_row(table, half) == pytest.approx(1.0 + 0.25 * (table[0] - 1.0))
+    assert lobe_row(table, 1e-6) == pytest.approx(np.ones(13), abs=1e-9)
 
 
 @pytest.mark.gl
