@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from sand_editor.colour import linear_to_srgb
 from sand_editor.export.maps import material_maps
 from sand_editor.export.sets import TARGETS as SET_TARGETS
 from sand_editor.export.sets import MapFormats, texture_set
 from sand_editor.export.steps import Steps, generation_steps
 from sand_editor.files import write_folder
 from sand_editor.generator import SandTextures
-from sand_editor.generator.noise import linear_to_srgb
 from sand_editor.preset import Preset
 
 LOW_RES_SIZE = 64

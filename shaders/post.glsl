@@ -62,7 +62,7 @@ void main() {
 // Each texel of the small metering target: the log of the mean luminance of the scene under
 // it (a bilinear tap of the scene's smallest bloom level that covers it).
 void main() {
-    float luminance = dot(texture(u_source, output_uv()).rgb, vec3(0.2126, 0.7152, 0.0722));
+    float luminance = dot(texture(u_source, output_uv()).rgb, LUMINANCE_WEIGHTS);
     out_colour = vec4(log(max(luminance, 1e-8)), 0.0, 0.0, 1.0);
 }
 

@@ -91,3 +91,20 @@ def test_readme_has_exactly_two_setup_commands_and_ci_runs_the_test_one():
     assert re.search(r"^exec tools/run-tests$", ci, flags=re.M)
     for script in commands:
         assert os.access(ROOT / script, os.X_OK), f"{script} must be executable"
+
+
+def test_colour_facts_are_written_once():
+    # The luminance weights and the sRGB curve's knees live in sand_editor/colour.py alone; the
+    # shaders get the weights as a #define (the GLSL encoder of common.glsl is the one copy of
+    # the curve on the GPU side).
+    owners = {ROOT / "sand_editor" / "colour.py", ROOT / "shaders" / "common.glsl"}
+    facts = re.compile(r"0\.7152|0\.04045")
+    copies = [
+        str(path.relative_to(ROOT))
+        for folder in ("sand_editor", "shaders")
+        for path in sorted((ROOT / folder).rglob("*"))
+        if path.suffix in (".py", ".glsl", ".frag", ".vert")
+        and path not in owners
+        and facts.search(path.read_text(encoding="utf-8"))
+    ]
+    assert copies == []

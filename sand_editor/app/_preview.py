@@ -21,8 +21,9 @@ from PySide6.QtWidgets import (
 )
 
 from sand_editor.app._view3d import View3DPanel
+from sand_editor.colour import linear_to_srgb
 from sand_editor.generator import SandTextures
-from sand_editor.generator.noise import MAX_LAYERS, linear_to_srgb
+from sand_editor.generator.noise import MAX_LAYERS
 from sand_editor.view import ViewModel
 
 CHANNELS = ("Albedo", "Normals", "Glint", "Layers")

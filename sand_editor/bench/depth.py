@@ -39,7 +39,7 @@ REPEATS = 7  # timed frames per setting, the median kept
 def supersampled(image: np.ndarray, factor: int) -> np.ndarray:
     """An sRGB uint8 frame averaged down ``factor``×``factor`` in linear light, as sRGB floats
     in [0, 1]."""
-    from sand_editor.generator.noise import linear_to_srgb, srgb_to_linear
+    from sand_editor.colour import linear_to_srgb, srgb_to_linear
 
     h, w = image.shape[0] // factor, image.shape[1] // factor
     encoded = image[: h * factor, : w * factor] / 255.0

@@ -27,12 +27,12 @@ import time
 import numpy as np
 
 from sand_editor.bench._optional import optional_module
+from sand_editor.colour import LUMINANCE
 from sand_editor.export.maps import clear_weights
 from sand_editor.generator import generate
 from sand_editor.preset import Preset
 from sand_editor.render.far_brdf import sphere_brdf
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 SUN_DIRECTION = np.array([0.0, 0.6, -0.8])  # towards the sun: the probe's
 SUN_IRRADIANCE = np.array([3.0, 2.85, 2.6])
 PITCH_DEG = 45.0

@@ -50,9 +50,9 @@ import numpy as np
 
 from sand_editor.bench import mitsuba_reference as reference
 from sand_editor.bench._optional import optional_module
-from sand_editor.bench.mitsuba_reference import LUMINANCE, SUN_IRRADIANCE
+from sand_editor.bench.mitsuba_reference import SUN_IRRADIANCE
+from sand_editor.colour import LUMINANCE, linear_to_srgb
 from sand_editor.generator import generate
-from sand_editor.generator.noise import linear_to_srgb
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset, shader_source
 

@@ -26,6 +26,8 @@ from sand_editor.bench._report import report
 from sand_editor.bench.frame_cost import material_costs, stereo_cost
 from sand_editor.bench.generator import machine_description
 from sand_editor.bench.probe import MaterialProbe
+from sand_editor.colour import LUMINANCE as COLOUR_LUMINANCE
+from sand_editor.colour import srgb_to_linear
 from sand_editor.gl import drawing_into, standalone_context
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
@@ -38,7 +40,7 @@ APPROACHES = ("ours", "expected", "reference", "none")
 # The expectation each approach's energy is measured by: ours by its mean over its draws.
 ENERGY_FILTER = {"ours": "ours-mean", "expected": "expected", "reference": "reference",
                  "none": "none", "ground-truth": "ground-truth-mean"}  # fmt: skip
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+LUMINANCE = np.asarray(COLOUR_LUMINANCE)
 SPARKLE_RATIO = 2.0  # a sparkle: at least twice the median luminance around it
 SPARKLE_WINDOW = 9  # pixels across the neighbourhood whose median that is
 LOOK_SIZE = (480, 270)
@@ -51,8 +53,7 @@ def luminance(image: np.ndarray) -> np.ndarray:
 
 
 def srgb_decode(encoded: np.ndarray) -> np.ndarray:
-    c = encoded.astype(np.float64) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return srgb_to_linear(encoded.astype(np.float64) / 255.0)
 
 
 def sparkle_mask(image: np.ndarray) -> np.ndarray:

@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from sand_editor.bench.probe import MaterialProbe
-from sand_editor.generator.noise import srgb_to_linear
+from sand_editor.colour import LUMINANCE as COLOUR_LUMINANCE
+from sand_editor.colour import srgb_to_linear
 from sand_editor.preset import FIELDS, Color, Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.exposure import light_exposure
@@ -27,7 +28,7 @@ SHIPPED = ("paper-default", "black-volcanic", "pale-quartz", "red-desert")
 DISTANCES = (0.3, 1.0, 3.0, 10.0, 30.0)
 # Noon, and a low sun ahead of the camera (glints towards it); as scene times for the frames.
 SUNS = {"noon": ((0.2, 0.95, -0.25), "12:00"), "low": ((0.0, 0.2, -0.98), "17:45")}
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+LUMINANCE = np.asarray(COLOUR_LUMINANCE)
 CLIPPED = 250  # an 8-bit channel value at or above which a pixel reads as white
 PITCH_DEG = 35.0
 FOV_Y_DEG = 60.0  # camera_at_distance's

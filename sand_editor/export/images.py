@@ -172,7 +172,7 @@ _SRGB8_STEPS = 65535  # the table's linear steps: its error is 1/20 of an 8-bit 
 
 @functools.cache
 def _srgb8_table() -> np.ndarray:
-    from sand_editor.generator.noise import linear_to_srgb
+    from sand_editor.colour import linear_to_srgb
 
     linear = np.arange(_SRGB8_STEPS + 1, dtype=np.float64) / _SRGB8_STEPS
     return np.rint(linear_to_srgb(linear) * 255.0).astype(np.uint8)

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sand_editor.colour import srgb_to_linear
 from sand_editor.preset import GRAINS_PER_CELL
 
 MAX_LAYERS = 15
@@ -75,16 +76,6 @@ def lowbias32(x: np.ndarray) -> np.ndarray:
         x = x ^ (x >> _U32(15))
         x = x * _U32(0x846CA68B)
     return x ^ (x >> _U32(16))
-
-
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    c = np.asarray(c, dtype=np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def linear_to_srgb(c: np.ndarray) -> np.ndarray:
-    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
-    return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
 
 
 @dataclass(frozen=True)

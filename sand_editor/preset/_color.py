@@ -5,17 +5,11 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from sand_editor.colour import srgb_decode
 from sand_editor.preset._checks import check_integer, describe, type_name
 from sand_editor.preset._errors import PresetError
 
 _HEX = re.compile(r"#[0-9a-fA-F]{6}")
-
-
-def _srgb_to_linear(encoded: float) -> float:
-    # IEC 61966-2-1 piecewise EOTF, not the 2.2 power approximation.
-    if encoded <= 0.04045:
-        return encoded / 12.92
-    return ((encoded + 0.055) / 1.055) ** 2.4
 
 
 @dataclass(frozen=True)
@@ -64,7 +58,7 @@ class Color:
     def linear(self) -> tuple[float, float, float]:
         """Linear-light channel values in [0, 1] (exact sRGB transfer function)."""
         r, g, b = self.srgb
-        return (_srgb_to_linear(r), _srgb_to_linear(g), _srgb_to_linear(b))
+        return (srgb_decode(r), srgb_decode(g), srgb_decode(b))
 
     def __str__(self) -> str:
         return self.hex

@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-LUMINANCE = (0.2126, 0.7152, 0.0722)
+from sand_editor.colour import LUMINANCE
+
 LIGHT_ADAPTATION = 0.5  # exposure ∝ (light)^−this: partial adaptation keeps night darker
 EXPOSURE_KEY = 2.5  # a grey card (albedo 0.18) under the noon sun displays 0.18, as metered
 SCENE_ADAPTATION = 0.2  # and ∝ (scene / mid-grey)^−this: a fifth of the way, on a log scale

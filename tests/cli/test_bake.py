@@ -13,8 +13,8 @@ import pytest
 from PIL import Image
 
 from sand_editor.bake import FILES, bake
+from sand_editor.colour import linear_to_srgb
 from sand_editor.generator import generate
-from sand_editor.generator.noise import linear_to_srgb
 from sand_editor.preset import Preset
 
 pytestmark = pytest.mark.gl
