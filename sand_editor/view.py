@@ -20,8 +20,10 @@ CLOCK = "clock"  # the source of changes made by the running clock (ViewModel.ti
 TIME_FIELDS = frozenset({"hours", "day_speed", "playing"})  # the clock's fields of ViewState
 REAL_TIME = 1.0 / 3600.0  # the day speed of a real day
 DEFAULT_DAY_SPEED = 0.25  # what playing a day starts at: a quarter of an hour a second
+# The eye's distance from the sand, for the editor's view and every rendered frame alike: a
+# grain's width to a field of dunes.
 MIN_DISTANCE_M = 1e-3
-MAX_DISTANCE_M = 100.0
+MAX_DISTANCE_M = 1000.0
 MIN_PITCH_DEG = 1.0
 MAX_PITCH_DEG = 90.0
 # The render modes (sand_editor.render.modes takes them from here, with their help texts).

@@ -32,7 +32,7 @@ def test_update_tells_each_listener_once_what_changed_and_who_changed_it():
     "changes,field,expected",
     [
         ({"distance_m": math.nan}, "distance_m", 1.0),
-        ({"distance_m": 1e9}, "distance_m", 100.0),
+        ({"distance_m": 1e9}, "distance_m", 1000.0),
         ({"distance_m": 0.0}, "distance_m", 1e-3),
         ({"pitch_deg": -5}, "pitch_deg", 1.0),
         ({"heading_deg": 725.0}, "heading_deg", 5.0),

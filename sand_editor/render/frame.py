@@ -17,9 +17,7 @@ from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import check_mode
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.sky import parse_time, sky_at
-
-MIN_DISTANCE_M = 1e-3
-MAX_DISTANCE_M = 1e4
+from sand_editor.view import MAX_DISTANCE_M, MAX_PITCH_DEG, MIN_DISTANCE_M, MIN_PITCH_DEG
 
 
 def check_view(distance_m: float, pitch_deg: float) -> None:
@@ -27,8 +25,11 @@ def check_view(distance_m: float, pitch_deg: float) -> None:
         raise ValueError(
             f"distance {distance_m} m is out of range; allowed {MIN_DISTANCE_M} to {MAX_DISTANCE_M}"
         )
-    if not (math.isfinite(pitch_deg) and 1.0 <= pitch_deg <= 90.0):
-        raise ValueError(f"pitch {pitch_deg}° is out of range; allowed 1 to 90 degrees")
+    if not (math.isfinite(pitch_deg) and MIN_PITCH_DEG <= pitch_deg <= MAX_PITCH_DEG):
+        raise ValueError(
+            f"pitch {pitch_deg}° is out of range; allowed {MIN_PITCH_DEG:g} to {MAX_PITCH_DEG:g} "
+            "degrees"
+        )
 
 
 def render_frame(
