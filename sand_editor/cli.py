@@ -210,7 +210,7 @@ def _cmd_vr(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from sand_editor.bench._optional import MissingPackage
+    from sand_editor.bench import MissingPackage
     from sand_editor.files import OutputError, check_output
 
     for option, output in (("--json", args.json), ("--plot", args.plot)):
@@ -256,14 +256,14 @@ def _run_bench(args) -> int:
         if args.sizes or args.plot:
             raise CommandError("--sizes and --plot do not apply to the editor benchmark")
         # Lives with the editor: only the app package may import Qt.
-        from sand_editor.app._bench import main as bench_editor
+        from sand_editor.bench.editor import main as bench_editor
 
         return bench_editor(quick=args.quick, json_path=args.json)
     if args.what in ("vr-link", "vr-runtime"):
         if args.sizes or args.plot:
             raise CommandError(f"--sizes and --plot do not apply to the {args.what} benchmark")
         if args.what == "vr-link":
-            from sand_editor.app._bench_vr_link import main as bench_vr_link
+            from sand_editor.bench.vr_link import main as bench_vr_link
 
             return bench_vr_link(quick=args.quick, json_path=args.json)
         from sand_editor.bench.vr_runtime import main as bench_vr_runtime

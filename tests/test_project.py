@@ -108,3 +108,26 @@ def test_colour_facts_are_written_once():
         and facts.search(path.read_text(encoding="utf-8"))
     ]
     assert copies == []
+
+
+def test_no_package_imports_another_packages_private_modules():
+    # A package's ``_module`` is its own business: others use what its __init__ exports.
+    import ast
+
+    found = []
+    for path in sorted((ROOT / "sand_editor").rglob("*.py")):
+        here = path.relative_to(ROOT / "sand_editor").parts
+        own = here[0] if len(here) > 1 else None
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                names = [node.module]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            for name in names:
+                parts = name.split(".")
+                if len(parts) >= 3 and parts[0] == "sand_editor" and parts[2].startswith("_"):
+                    if parts[1] != own:
+                        found.append(f"{path.relative_to(ROOT)}:{node.lineno} imports {name}")
+    assert found == []

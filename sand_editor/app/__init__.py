@@ -4,7 +4,7 @@ Nothing else in ``sand_editor`` imports this package except the command line, la
 """
 
 from sand_editor.app._model import PresetModel
-from sand_editor.app._run import missing_display, run_editor
+from sand_editor.app._run import missing_display, require_display, run_editor
 from sand_editor.app._window import EditorWindow
 
-__all__ = ["EditorWindow", "PresetModel", "missing_display", "run_editor"]
+__all__ = ["EditorWindow", "PresetModel", "missing_display", "require_display", "run_editor"]

@@ -39,7 +39,7 @@ from sand_editor.gl import standalone_context
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
 from sand_editor.untrusted import integer, number
-from sand_editor.vr._resources import resident_mb
+from sand_editor.vr import resident_mb
 from sand_editor.vr.desktop import FOV_Y_DEG
 from sand_editor.vr.glwindow import HeadlessContexts
 from sand_editor.vr.headless import HeadlessBackend

@@ -15,6 +15,7 @@ from sand_editor.generator.noise import NoiseConstants
 
 __all__ = [
     "BACKENDS",
+    "GpuSandTextures",
     "MAX_SIZE",
     "MIN_SIZE",
     "SandTextures",
@@ -112,3 +113,12 @@ def generate_progressive(
         yield target.read(constants, generation)
     finally:
         target.release()
+
+
+def __getattr__(name: str):
+    # The GL side is imported only when asked for: the generator's maths import no OpenGL.
+    if name == "GpuSandTextures":
+        from sand_editor.generator._gl import GpuSandTextures
+
+        return GpuSandTextures
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

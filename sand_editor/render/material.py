@@ -14,8 +14,7 @@ from collections.abc import Callable
 import moderngl
 import numpy as np
 
-from sand_editor.generator import SandTextures, check_size, gl_generator
-from sand_editor.generator._gl import GpuSandTextures
+from sand_editor.generator import GpuSandTextures, SandTextures, check_size, gl_generator
 from sand_editor.generator.noise import (
     MAX_LAYERS,
     PROFILE_OFFSET,

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from sand_editor.app._bench import SCENARIOS
+from sand_editor.bench.editor import SCENARIOS
 from tests.app.conftest import run_python
 
 

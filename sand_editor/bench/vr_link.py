@@ -181,7 +181,7 @@ def main(quick: bool = False, json_path: str | None = None) -> int:
     """10 edits of each kind at eye sizes 0.1 and 0.5 of 480×360, with the editor's tiles
     handed over and without (``quick``: 3 edits, 0.1)."""
     edits, render_scales = (3, [0.1]) if quick else (10, [0.1, 0.5])
-    from sand_editor.app._run import require_display
+    from sand_editor.app import require_display
 
     require_display()
     from PySide6.QtWidgets import QApplication

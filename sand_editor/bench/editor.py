@@ -71,7 +71,7 @@ def _percentile(values: list[float], q: float) -> float:
 
 class EditorBench:
     def __init__(self, app: QApplication, quick: bool) -> None:
-        from sand_editor.app._window import EditorWindow
+        from sand_editor.app import EditorWindow
 
         self.app = app
         self.quick = quick
@@ -225,7 +225,7 @@ def _no_plot(results: dict, path: str) -> None:
 
 
 def main(quick: bool = False, json_path: str | None = None, plot_path: str | None = None) -> int:
-    from sand_editor.app._run import require_display
+    from sand_editor.app import require_display
 
     require_display()
     app = QApplication.instance() or QApplication(sys.argv[:1])
