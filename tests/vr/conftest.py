@@ -35,6 +35,10 @@ def pytest_collection_modifyitems(items):
         path = Path(item.fspath)
         if inside in path.parents or "monado_harness" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.openxr)
+            if not IN_MONADO:  # the runtime's own venv has no pytest-xdist
+                # One runtime at a time: under pytest-xdist (--dist loadgroup) every test that
+                # drives the harness runs on the same worker.
+                item.add_marker(pytest.mark.xdist_group("openxr"))
 
 
 def _missing_prerequisite() -> str | None:
