@@ -300,8 +300,9 @@ class SandMaterial:
 
     def _measure_lobe_correction(self) -> np.ndarray:
         """The rotated facet lobe's light over the slope moments' (facet_lobe.py), measured on
-        the clear grains' slopes of a level LOBE_LEVEL texels finer than 4 apart (a grain spans
-        tens of texels there, so its slopes are kept)."""
+        the clear grains' mean slopes at mip level LOBE_LEVEL, each the mean of 4×4 texels
+        (a paper-default grain cell spans 7 of them at 1024²; on the finest periods a texel there
+        mixes grains, which narrows the measured slopes a little)."""
         level = min(LOBE_LEVEL, int(self.max_lod))
         side = max(self.texture_size >> level, 1)
         texels = np.frombuffer(read_without_gil(self.glint_moments, level=level), dtype=np.float32)
