@@ -26,8 +26,7 @@ from sand_editor.bench._report import report
 from sand_editor.bench.frame_cost import material_costs, stereo_cost
 from sand_editor.bench.generator import machine_description
 from sand_editor.bench.probe import MaterialProbe
-from sand_editor.colour import LUMINANCE as COLOUR_LUMINANCE
-from sand_editor.colour import srgb_to_linear
+from sand_editor.colour import luminance, srgb_to_linear
 from sand_editor.gl import drawing_into, standalone_context
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
@@ -40,16 +39,11 @@ APPROACHES = ("ours", "expected", "reference", "none")
 # The expectation each approach's energy is measured by: ours by its mean over its draws.
 ENERGY_FILTER = {"ours": "ours-mean", "expected": "expected", "reference": "reference",
                  "none": "none", "ground-truth": "ground-truth-mean"}  # fmt: skip
-LUMINANCE = np.asarray(COLOUR_LUMINANCE)
 SPARKLE_RATIO = 2.0  # a sparkle: at least twice the median luminance around it
 SPARKLE_WINDOW = 9  # pixels across the neighbourhood whose median that is
 LOOK_SIZE = (480, 270)
 LOOK_TIMES = ("12:00", "16:30")
 LOOK_DISTANCES = (0.3, 1.0, 30.0)
-
-
-def luminance(image: np.ndarray) -> np.ndarray:
-    return image @ LUMINANCE
 
 
 def srgb_decode(encoded: np.ndarray) -> np.ndarray:

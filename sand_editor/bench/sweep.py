@@ -14,8 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from sand_editor.bench.probe import MaterialProbe
-from sand_editor.colour import LUMINANCE as COLOUR_LUMINANCE
-from sand_editor.colour import srgb_to_linear
+from sand_editor.colour import luminance, srgb_to_linear
 from sand_editor.preset import FIELDS, Color, Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.exposure import light_exposure
@@ -28,7 +27,6 @@ SHIPPED = ("paper-default", "black-volcanic", "pale-quartz", "red-desert")
 DISTANCES = (0.3, 1.0, 3.0, 10.0, 30.0)
 # Noon, and a low sun ahead of the camera (glints towards it); as scene times for the frames.
 SUNS = {"noon": ((0.2, 0.95, -0.25), "12:00"), "low": ((0.0, 0.2, -0.98), "17:45")}
-LUMINANCE = np.asarray(COLOUR_LUMINANCE)
 CLIPPED = 250  # an 8-bit channel value at or above which a pixel reads as white
 PITCH_DEG = 35.0
 FOV_Y_DEG = 60.0  # camera_at_distance's
@@ -106,7 +104,7 @@ def grains_across(preset: Preset, distance_m: float, aspect: float) -> float:
 
 def _ground(image: np.ndarray) -> np.ndarray:
     """Luminance of the lower half of a top-down (height, width, 3) image."""
-    return image[image.shape[0] // 2 :] @ LUMINANCE
+    return luminance(image[image.shape[0] // 2 :])
 
 
 class Sweep:
