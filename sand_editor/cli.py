@@ -238,9 +238,15 @@ def _run_bench(args) -> int:
         from sand_editor.bench.render import main as bench_render
 
         return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
-    if args.what in ("appearance", "depth", "relief"):
+    if args.what in ("appearance", "depth", "relief", "repetition"):
         if args.sizes:
             raise CommandError("--sizes applies to the generator benchmark only")
+        if args.what == "repetition":
+            if args.plot:
+                raise CommandError("--plot does not apply to the repetition benchmark")
+            from sand_editor.bench.repetition import main as bench_repetition
+
+            return bench_repetition(quick=args.quick, json_path=args.json)
         if args.what == "depth":
             from sand_editor.bench.depth import main as bench_depth
 
@@ -411,6 +417,7 @@ def _parser() -> argparse.ArgumentParser:
             "appearance",
             "depth",
             "relief",
+            "repetition",
             "editor",
             "vr-link",
             "vr-runtime",

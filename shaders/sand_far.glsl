@@ -31,57 +31,127 @@ vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v) {
     return brdf * u_sphere_inverse_albedo;
 }
 
-// How far the dune slope turns the ripples: the wind's direction on the surface plus this times
-// the (unnormalised) downhill direction, which is 0 on flat ground and grows with the slope, so
-// the ripples bend over the dunes without a seam where the slope's direction turns.
+// How far the dunes turn the ripples: the phase runs back by this times the dune's height, so
+// on a slope the crests turn towards its contours and close up, and on flat ground they run
+// as the wind lays them. (Turning the ripples' frame with the slope instead would turn it about
+// the world's origin: tens of metres away a slight turn moves the phase by many crests, which
+// drew fingerprint rings over the dunes.)
 const float RIPPLE_BEND = 0.6;
 
 uniform int u_sharp_ripples;  // 1: ripples filtered along the footprint (below); 0: isotropically
 uniform float u_no_ripples;   // 0 on the dunes; 1 on objects (a tray, a sphere): no wind ripples
-const int RIPPLE_TAPS = 4;
 
-// A ripple map's mean slope over the pixel's footprint (uv derivatives dx, dy). A distant
-// footprint is a long streak across the ripples: filtered isotropically, as mipmaps are, it
-// would be blurred to its longest axis and the ripples would fade where they are still seen
-// across the view. Here up to RIPPLE_TAPS taps along the longer axis, each filtered to the
-// footprint's width, average it as its own shape: the filtering the GPU's anisotropic sampler
-// does, whose CPU rasterizer's version costs far more.
-vec2 ripple_slopes(sampler2D map, vec2 uv, vec2 dx, vec2 dy) {
-    if (u_sharp_ripples == 0) return textureGrad(map, uv, dx, dy).xy;
-    bool x_longer = dot(dx, dx) >= dot(dy, dy);
-    vec2 major = x_longer ? dx : dy, minor = x_longer ? dy : dx;
-    float ratio = length(major) / max(length(minor), 1e-12);
-    float taps = clamp(ceil(ratio), 1.0, float(RIPPLE_TAPS));
-    vec2 step_uv = major / taps;
-    vec2 sum = vec2(0.0);
-    for (int i = 0; i < RIPPLE_TAPS; ++i) {
-        if (float(i) >= taps) break;
-        vec2 at = uv + step_uv * (float(i) + 0.5 - 0.5 * taps);
-        sum += textureGrad(map, at, step_uv, minor).xy;
-    }
-    return sum / taps;
+// Wind ripples, made where they are seen rather than read from a tile, so they never repeat.
+// Crests run across the wind, RIPPLE_WAVELENGTH apart on average, wandering sideways along
+// low-frequency noise (which also stretches and squeezes the spacing); here and there a crest
+// forks (ripple_defect): one more crest starts between two forks, as real ripple fields show.
+// The profile rises slowly on the windward side and drops on the lee, more so on steep slopes.
+// Everything is an analytic function of the phase, so the footprint's filtering is too: the
+// phase varies over the pixel by σ, and the ripple's slope is the footprint's mean, attenuated
+// by exp(−σ²/2), which fades ripples smaller than a pixel smoothly (no moiré at any distance);
+// the slope variance the filtering removes is handed to the diffuse light's spread of normals
+// (as LEAN and Toksvig mapping do), so ripples too small to draw still roughen the light.
+const float RIPPLE_WAVELENGTH = 0.09;  // metres
+const float RIPPLE_SHARPNESS = 0.5;    // the profile's asymmetry on gentle ground (0: a sine)
+const float RIPPLE_STEEP_SHARPNESS = 0.9;
+const float RIPPLE_WANDER = 0.6;       // crests' sideways wander, in wavelengths
+const vec2 RIPPLE_WANDER_SCALE = vec2(1.6, 0.8); // metres: the wander's features (along, across)
+const float DEFECT_CELL = 1.6;         // metres: one fork pair at most per cell of the wind's frame
+const float DEFECT_CHANCE = 0.8;
+const float DEFECT_REACH = 0.3;        // metres from its crest's segment that a pair bends crests
+const uint RIPPLE_KEY = 0x2c1b3c6du;
+
+// Smooth value noise in [−1, 1] with its gradient (per unit of p), on a hashed lattice.
+vec3 value_noise(vec2 p, uint key) {
+    vec2 cell = floor(p), f = p - cell;
+    ivec2 c = ivec2(cell);
+    float a = hash01(hash_cell(c, key)), b = hash01(hash_cell(c + ivec2(1, 0), key));
+    float d = hash01(hash_cell(c + ivec2(0, 1), key)), e = hash01(hash_cell(c + ivec2(1, 1), key));
+    // Quintic fade: the gradient (the crests' spacing) is smooth across cells too.
+    vec2 u = f * f * f * (f * (6.0 * f - 15.0) + 10.0), du = 30.0 * f * f * (f * (f - 2.0) + 1.0);
+    float value = mix(mix(a, b, u.x), mix(d, e, u.x), u.y);
+    vec2 grad = du * vec2(mix(b - a, e - d, u.y), mix(d - a, e - b, u.x));
+    return vec3(2.0 * value - 1.0, 2.0 * grad);
 }
 
-// The macro normal with ripples across the wind and fine detail.
-vec3 rippled_normal(SurfacePoint s) {
-    // The ripple maps' crests run along v and the wind blows along +u: the frame's first axis
-    // is the way the wind blows (from the compass bearing u_wind_direction), on the surface.
+// The phase (radians) a fork pair adds at q (metres, wind's frame): two phase singularities of
+// opposite winding a few wavelengths apart along the crests, whose 2π jumps both run along the
+// segment between them (where sin() does not see them), faded out before the cell's edge so
+// that cells need not see each other's.
+float ripple_defect(vec2 q) {
+    vec2 cell = floor(q / DEFECT_CELL);
+    uint h = hash_cell(ivec2(cell), RIPPLE_KEY ^ 0x9e3779b9u);
+    if (hash01(h) >= DEFECT_CHANCE) return 0.0;
+    float half_length = RIPPLE_WAVELENGTH * mix(2.0, 5.0, hash01(lowbias32(h + 1u)));
+    float reach = DEFECT_REACH;
+    vec2 jitter = vec2(hash01(lowbias32(h + 2u)), hash01(lowbias32(h + 3u))) - 0.5;
+    vec2 room = vec2(0.5 * DEFECT_CELL - reach) - vec2(0.0, half_length);
+    vec2 centre = (cell + 0.5) * DEFECT_CELL + 2.0 * jitter * max(room, 0.0);
+    vec2 d1 = q - centre + vec2(0.0, half_length), d2 = q - centre - vec2(0.0, half_length);
+    // Angles whose cut runs from each singularity along +y (across the wind): the difference
+    // jumps only between them.
+    float winding = atan(d1.x, -d1.y) - atan(d2.x, -d2.y);
+    vec2 off = q - centre;
+    float to_segment = length(vec2(off.x, max(abs(off.y) - half_length, 0.0)));
+    float sign_ = (h & 0x10u) != 0u ? 1.0 : -1.0;
+    return sign_ * winding * (1.0 - smoothstep(0.35 * reach, reach, to_segment));
+}
+
+struct RippleSlope {
+    vec2 slope;      // mean slope over the footprint, in the wind's frame (along, across)
+    float variance;  // of the slope about it over the footprint, along the phase's gradient
+};
+
+// The ripples' slope at q (metres in the wind's frame: x along the wind), filtered over the
+// footprint of derivatives dx, dy, on gentle (steep = 0) to steep (1) ground; the phase is set
+// back by `bend` metres (RIPPLE_BEND times the dune's height), whose gradient is bend_grad.
+RippleSlope ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_grad) {
+    vec3 wander = value_noise(q / RIPPLE_WANDER_SCALE, RIPPLE_KEY);
+    float k = 2.0 * PI / RIPPLE_WAVELENGTH;
+    float shift = RIPPLE_WANDER * RIPPLE_WAVELENGTH;  // metres of wander per unit of noise
+    float phase = k * (q.x - bend + shift * wander.x) + ripple_defect(q);
+    vec2 along = vec2(1.0, 0.0) - bend_grad + shift * wander.yz / RIPPLE_WANDER_SCALE;  // ∇phase/k
+    // The phase's variance over the pixel's footprint, a Gaussian of about 0.6 pixels' deviation
+    // (a box's third of the squared width would leave ripples past the pixels' Nyquist rate at
+    // a sixth of their contrast: moiré), along each axis, or (isotropic, as mip mapping
+    // filters) the longer one in both.
+    float gx = k * dot(along, dx), gy = k * dot(along, dy);
+    float spread2 = u_sharp_ripples != 0
+        ? (gx * gx + gy * gy) / 3.0
+        : k * k * dot(along, along) * max(dot(dx, dx), dot(dy, dy)) * (2.0 / 3.0);
+    float keep = exp(-0.5 * spread2);
+    // h = sin(t + s·sin t)/k: its slope is dh/dt·∇t/k, largest 1 at the lee (over 1 + s).
+    // The asymmetry is the profile's harmonics, which the footprint filters as its second:
+    // exp(−4σ²/2) against the fundamental's exp(−σ²/2).
+    float sharp = mix(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, steep) * exp(-1.5 * spread2);
+    float profile = cos(phase + sharp * sin(phase)) * (1.0 + sharp * cos(phase)) / (1.0 + sharp);
+    RippleSlope r;
+    r.slope = keep * profile * along;
+    // A profile's mean square is about ½ of its peak's; what the filter took is (1 − keep²).
+    r.variance = 0.5 * (1.0 - keep * keep) * dot(along, along);
+    return r;
+}
+
+// The macro normal with ripples across the wind and fine detail; `variance` is the ripples'
+// slope variance the footprint filtered away (tangent space, strength applied), along `axis`.
+vec3 rippled_normal(SurfacePoint s, out float variance, out vec2 axis) {
+    // The ripples' frame: +x the way the wind blows (from the compass bearing
+    // u_wind_direction), in uv, which is the world's (x, z) on the dunes.
     float from = radians(u_wind_direction);
-    vec3 wind = vec3(-sin(from), 0.0, cos(from));  // world: x east, −z north
-    vec3 up = vec3(0.0, 1.0, 0.0);
-    vec3 downhill = s.normal - dot(s.normal, up) * up;
-    float slope = length(downhill);
-    vec3 along = wind + RIPPLE_BEND * downhill;
-    vec2 a = vec2(dot(along, s.tangent), dot(along, s.bitangent));
-    float len = length(a);
-    vec2 axis_t = len > 1e-6 ? a / len : vec2(1.0, 0.0);
+    vec2 axis_t = vec2(-sin(from), cos(from));
     mat2 frame = mat2(axis_t, vec2(-axis_t.y, axis_t.x));  // columns: along, across
-    vec2 ripple_uv = transpose(frame) * s.uv;
-    float steep = smoothstep(0.2, 0.45, slope);
+    // The dune's height and its gradient over (x, z), from the macro normal.
+    float up = max(s.normal.y, 0.2);
+    vec2 height_grad = -vec2(s.normal.x, s.normal.z) / up;
+    float steep = smoothstep(0.2, 0.45, length(s.normal.xz));
     vec2 dx = transpose(frame) * dFdx(s.uv), dy = transpose(frame) * dFdy(s.uv);
-    vec2 grad_r = mix(ripple_slopes(u_ripple_shallow, ripple_uv, dx, dy),
-                      ripple_slopes(u_ripple_steep, ripple_uv, dx, dy), steep);
-    vec2 grad = frame * grad_r * (1.0 - u_no_ripples);
+    RippleSlope r = ripples_at(transpose(frame) * s.uv, dx, dy, steep,
+                               RIPPLE_BEND * s.position.y,
+                               RIPPLE_BEND * (transpose(frame) * height_grad));
+    float gain = RIPPLE_SLOPE_GAIN * u_ripple_strength * (1.0 - u_no_ripples);
+    vec2 grad = frame * r.slope * (1.0 - u_no_ripples);
+    variance = gain * gain * r.variance;
+    axis = axis_t;
     grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
     vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));
     return to_world(n_t, s);
@@ -90,8 +160,8 @@ vec3 rippled_normal(SurfacePoint s) {
 // The surface point on its ripples: the rippled normal, bent towards the eye where a ripple's
 // back would face away from it (a hard dark patch that no real ripple shows: its back would be
 // hidden by its crest), with the tangent frame turned to it.
-SurfacePoint rippled_point(SurfacePoint s, vec3 v) {
-    vec3 n = rippled_normal(s);
+SurfacePoint rippled_point(SurfacePoint s, vec3 v, out float variance, out vec2 axis) {
+    vec3 n = rippled_normal(s, variance, axis);
     float facing = dot(n, v);
     if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
     SurfacePoint r = s;

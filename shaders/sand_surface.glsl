@@ -24,8 +24,6 @@ uniform sampler2D u_glint_moments;   // w, w·bx, w·by, w·bx·by
 uniform sampler2D u_spread_moments;  // w·bx², w·by², bx, by
 uniform sampler2D u_hole_moments;    // w·exp(−|b|²/2s₀²)
 uniform sampler2D u_normal_moments;  // nx, ny, nx², ny² of every texel's unit grain normal
-uniform sampler2D u_ripple_steep;    // tangent-space slope (∂h/∂u, ∂h/∂v) of ripples, 1 m tile
-uniform sampler2D u_ripple_shallow;
 uniform sampler2D u_detail;
 uniform vec3 u_average_albedo;       // linear: the far-field colour
 uniform float u_texture_size;        // texels per tile edge of the grain textures
@@ -65,6 +63,16 @@ vec3 to_world(vec3 t, SurfacePoint s) {
 }
 
 #include "sand_glints.glsl"
+#include "tile_variation.glsl"
+
+// The surface point in a tile copy's axes (TileCopy.axes): the copy's texture axes become its
+// tangent and bitangent, so that tangent-space vectors and the copy's moments agree.
+SurfacePoint in_copy_axes(SurfacePoint s, mat2 axes) {
+    SurfacePoint c = s;
+    c.tangent = axes[0][0] * s.tangent + axes[1][0] * s.bitangent;
+    c.bitangent = axes[0][1] * s.tangent + axes[1][1] * s.bitangent;
+    return c;
+}
 
 #include "bench/sand_probe.glsl" if SAND_PROBE
 
@@ -135,16 +143,17 @@ const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance
 const float FACING_BAND = 0.15;
 
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
-// their squares), as the grains themselves give it when each is resolved: at the mean normal
+// their squares, and the variance of the ripples' slopes the footprint filtered away), as the grains themselves give it when each is resolved: at the mean normal
 // and four more whose nx, ny hold that mean and the variance along two axes exactly. Unit
 // normals rather than slopes: bounded, and the cosine of the light is linear in them. The axes
 // are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
 // turning away from the eye) depends on the eye: fixed texture axes would make the average
 // jump where the eye's azimuth crosses them. The same average at every scale, so that the far
 // range's diffuse light is the close range's.
-vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L) {
+vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L,
+                            vec2 ripple_variance) {
     vec2 m = normals.xy;
-    vec2 variance = max(normals.zw - m * m, 0.0);
+    vec2 variance = max(normals.zw - m * m, 0.0) + ripple_variance;
     vec2 towards = to_tangent(v, s).xy;
     float reach = length(towards);
     vec2 along = reach > 1e-5 ? towards / reach : vec2(1.0, 0.0);
@@ -184,6 +193,15 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
          + grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
 }
 
+// The ripples' slope variance that a pixel's footprint filtered away (rippled_normal), along
+// a unit axis of the point's tangent frame.
+struct Ripples {
+    float variance;
+    vec2 axis;
+};
+
+vec2 ripple_spread(Ripples r) { return r.variance * r.axis * r.axis; }
+
 struct Shaded {
     vec3 radiance;
     vec3 glint;         // the specular part of radiance
@@ -209,7 +227,7 @@ void lights_in_tangent(SurfacePoint s, Lighting L, inout Footprint f) {
 // Close up: the footprint's albedo, mean grain normal and density of mirroring facets, drawn
 // as sparkles. reference_look: the reference's glint instead (its gain and distance boost on
 // the expectation over its kernel, no sparkle).
-Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
+Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look, Ripples rip) {
     Footprint f;
     f.tc = s.uv * u_uv_scale;
     f.dx = dFdx(f.tc);
@@ -217,6 +235,15 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     Shaded c;
     vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
     c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
+    if (u_tile_variation != 0) {
+        // The tile's copy at this point (tile_variation.glsl), shaded in its own axes.
+        TileCopy copy = tile_copy(f.tc, c.lod);
+        f.tc = copy.tc;
+        f.dx = copy.axes * f.dx;
+        f.dy = copy.axes * f.dy;
+        s = in_copy_axes(s, copy.axes);
+        rip.axis = copy.axes * rip.axis;
+    }
     lights_in_tangent(s, L, f);
     float relief = relief_weight(texels.x);
     if (relief > 0.0) {
@@ -252,13 +279,13 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     } else {
         c.glint = sand_specular(densities, h[0], h[1], L);
     }
-    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L) + c.glint;
+    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L, ripple_spread(rip)) + c.glint;
     return c;
 }
 
 // Far away: the tile's average albedo and its whole distribution of mirroring facets on the
 // macro normal, no sparkle: the limit of shade_close as the footprint covers the tile.
-vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
+vec3 shade_far(SurfacePoint s, Lighting L, vec3 v, Ripples rip) {
     Footprint f = Footprint(s.uv * u_uv_scale, vec2(0.0), vec2(0.0), vec3(0.0), vec3(0.0),
                             vec3(0.0), false, false);
     lights_in_tangent(s, L, f);
@@ -267,7 +294,7 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
     vec2 centre = vec2(0.5);
     vec4 normals = textureLod(u_normal_moments, centre, u_max_lod);
-    return filtered_diffuse_light(kd, normals, s, v, L)
+    return filtered_diffuse_light(kd, normals, s, v, L, ripple_spread(rip))
          + sand_specular(tile_factors(h0, h1), h0, h1, L);
 }
 
@@ -303,16 +330,17 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     if (mode == MODE_BLEND) return vec3(blend);
     if (mode == MODE_LAMBERT) return shade_lambert(s, L);
     // The grains lie on the ripples: close and far shade the same rippled surface.
-    SurfacePoint r = rippled_point(s, v);
-    if (mode == MODE_FAR) return shade_far(r, L, v);
+    Ripples rip;
+    SurfacePoint r = rippled_point(s, v, rip.variance, rip.axis);
+    if (mode == MODE_FAR) return shade_far(r, L, v, rip);
 
     // Past the cutoff the close term's share is negligible: none of its work is done.
 #if defined SAND_FAR_ONLY
-    return shade_far(r, L, v);
+    return shade_far(r, L, v, rip);
 #endif
     bool whole = mode == MODE_FULL || mode == MODE_REFERENCE_LOOK;
-    if (whole && blend > u_close_cutoff) return shade_far(r, L, v);
-    Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK);
+    if (whole && blend > u_close_cutoff) return shade_far(r, L, v, rip);
+    Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK, rip);
 
     if (mode == MODE_CLOSE) return close.radiance;
     if (mode == MODE_GLINTS) return close.glint;
@@ -320,6 +348,6 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
     // Both ranges hold the same light on average (the far one is the close one's limit), so
     // the blend only decides which work is done.
-    vec3 far = blend > 1e-4 ? shade_far(r, L, v) : vec3(0.0);
+    vec3 far = blend > 1e-4 ? shade_far(r, L, v, rip) : vec3(0.0);
     return mix(close.radiance, far, blend);
 }

@@ -80,6 +80,7 @@ class MaterialProbe:
         self.width, self.height = width, height
         self.glint_filter = "ours"
         self.relief = False  # the grains' relief up close (u_relief, sand_relief.glsl)
+        self.tile_variation = True  # the tile laid without a repeat (u_tile_variation)
         self.ripples = True  # the wind's ripples on the plane (u_no_ripples off)
         self.ground_truth_samples = 16  # K: the ground truth's K×K albedo and slope samples
         # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz;
@@ -141,7 +142,8 @@ class MaterialProbe:
             set_uniform(p, "u_no_ripples", 0.0 if self.ripples else 1.0)
             own = {"u_glint_filter": GLINT_FILTERS[self.glint_filter],
                    "u_ground_truth_samples": int(self.ground_truth_samples),
-                   "u_relief": int(self.relief)}  # fmt: skip
+                   "u_relief": int(self.relief),
+                   "u_tile_variation": int(self.tile_variation)}  # fmt: skip
             for name, value in own.items():
                 set_uniform(p, name, value)  # the far-only variant has no glints
         with drawing_into(self.ctx, self._fbo):

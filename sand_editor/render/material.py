@@ -1,4 +1,4 @@
-"""The sand material on the GPU: filterable grain textures, ripple maps and shading uniforms.
+"""The sand material on the GPU: filterable grain textures, the detail map and shading uniforms.
 
 ``SandMaterial.update(preset, grains=None)`` does only what a change needs: new grains when a
 generation parameter changed (or the grains given), new glint moments when a field of cost
@@ -45,7 +45,7 @@ from sand_editor.render.shadows import CASCADES
 
 DEFAULT_TEXTURE_SIZE = 1024
 GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
-RIPPLE_MAP_SIZE = 256
+DETAIL_MAP_SIZE = 256
 # Close-range work is skipped where the far term's blend weight is above this.
 CLOSE_CUTOFF = 0.999
 
@@ -99,26 +99,6 @@ def _periodic_gradient(height: np.ndarray) -> np.ndarray:
     return np.stack([du, dv], axis=-1)
 
 
-def ripple_slopes(size: int, ripples: int, wiggles: int, sharpness: float, seed: int) -> np.ndarray:
-    """Slopes of a tileable field of sand ripples over a 1 m tile, largest slope 1.
-
-    Crests run along v with a gentle sinuous wander; across them (along u) each ripple rises
-    slowly on its windward side and drops steeply on its lee side.
-    """
-    rng = np.random.default_rng(seed)
-    u, v = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size)
-    wander = sum(
-        rng.uniform(0.05, 0.12) / k * np.sin(2 * np.pi * (k * wiggles * v + rng.uniform()))
-        for k in (1, 2, 3)
-    )
-    phase = ripples * u + wander
-    # A skewed sine: windward and lee sides of unequal length.
-    t = 2 * np.pi * phase
-    height = np.sin(t + sharpness * np.sin(t)) / ripples
-    slopes = _periodic_gradient(height)
-    return (slopes / np.abs(slopes).max()).astype(np.float32)
-
-
 def detail_slopes(size: int, seed: int) -> np.ndarray:
     """Slopes of a tileable fine undulation (sums of random integer-frequency waves), max 1."""
     rng = np.random.default_rng(seed)
@@ -169,9 +149,7 @@ class SandMaterial:
         for texture in self._built:
             texture.build_mipmaps()  # the levels, made once; each build refills them
         self._build_fbo = keep(ctx.framebuffer(list(self._built)))
-        self.ripple_steep = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 14, 3, 0.9, seed=1))
-        self.ripple_shallow = self._map(ripple_slopes(RIPPLE_MAP_SIZE, 9, 2, 0.5, seed=2))
-        self.detail = self._map(detail_slopes(RIPPLE_MAP_SIZE, seed=3))
+        self.detail = self._map(detail_slopes(DETAIL_MAP_SIZE, seed=3))
 
     @staticmethod
     def _filterable(texture: moderngl.Texture) -> moderngl.Texture:
@@ -330,9 +308,8 @@ class SandMaterial:
             "u_spread_moments": self.spread_moments,
             "u_hole_moments": self.hole_moments,
             "u_normal_moments": self.normal_moments,
-            "u_ripple_steep": self.ripple_steep,
-            "u_ripple_shallow": self.ripple_shallow,
             "u_detail": self.detail,
+            "u_layer_grain": self._grains.layer_grain,  # the tile's copies' borders
         }
         # Every texture keeps its own unit whether or not a program uses it: programs sharing
         # these bindings (a surface drawn in near and far passes) then never disagree.

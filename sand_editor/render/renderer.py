@@ -103,6 +103,7 @@ class SandRenderer:
         # otherwise each frame takes its metered exposure at once, the same on every run.
         self.adapt_over_time = False
         self.relief = True  # grains at their depth and self-shadowed up close (sand_relief.glsl)
+        self.tile_variation = True  # the grain tile laid without a repeat (tile_variation.glsl)
         self.sharp_ripples = True  # ripples filtered along each pixel's footprint (sand_far.glsl)
         self.shadows = True  # the sun and the moon cast shadows (render/shadows.py)
         self.adaptation = EyeAdaptation()
@@ -304,6 +305,7 @@ class SandRenderer:
             "u_mode": mode_index(mode),
             "u_relief": int(self.relief),
             "u_sharp_ripples": int(self.sharp_ripples),
+            "u_tile_variation": int(self.tile_variation),
             "u_eye": _vec(camera.position),
             "u_sun_direction": _vec(sky.sun_direction),
             "u_sun_radiance": _vec(sky.sun_radiance),

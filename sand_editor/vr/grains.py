@@ -162,7 +162,7 @@ class GrainWorker:
         materials: list[SandMaterial] = []
         try:
             # Both materials are made now, before the first frame: making one compiles its
-            # programs and computes its ripple maps, half a second that would stall frames.
+            # programs and computes its detail map, half a second that would stall frames.
             for _ in range(self.MATERIALS):
                 materials.append(SandMaterial(ctx, self._texture_size))
             self._spare.extend(materials)

@@ -38,7 +38,9 @@ def _wave_bearing(image: np.ndarray) -> float:
     power = np.abs(np.fft.fftshift(np.fft.fft2(lum * window))) ** 2
     centre = SIZE // 2
     y, x = np.mgrid[:SIZE, :SIZE] - centre
-    power[np.hypot(x, y) < 4] = 0.0  # the dune's slow shading, not ripples
+    # Waves longer than ~30 cm are the dunes' slow shading and the ripple field's own large
+    # scale (forks, wander), not ripples (6–12 cm: about 50 cycles across this frame).
+    power[np.hypot(x, y) < 16] = 0.0
     row, col = np.unravel_index(np.argmax(power), power.shape)
     east, south = col - centre, row - centre  # image x is east, image rows go south
     return math.degrees(math.atan2(east, -south)) % 180.0
