@@ -92,8 +92,10 @@ def test_another_thread_runs_while_this_one_waits_for_a_long_draw(ctx):
 
 
 def test_moderngl_finish_keeps_other_threads_waiting(ctx):
-    """The reason for the helper: the same wait through moderngl holds the lock throughout."""
-    assert _progress_of_another_thread_during(ctx, ctx.finish) == 0
+    """The reason for the helper: the same wait through moderngl holds the lock throughout.
+    (The released wait lets the other thread count about 290 times; one count may still land
+    at the wait's edge on a loaded machine, which the suite's two processes make it.)"""
+    assert _progress_of_another_thread_during(ctx, ctx.finish) <= 1
 
 
 def test_mipmaps_and_read_back_match_moderngl(ctx):
