@@ -132,9 +132,18 @@ RippleSlope ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 b
     return r;
 }
 
-// The macro normal with ripples across the wind and fine detail; `variance` is the ripples'
-// slope variance the footprint filtered away (tangent space, strength applied), along `axis`.
-vec3 rippled_normal(SurfacePoint s, out float variance, out vec2 axis) {
+// The ripples' slope variance that a pixel's footprint filtered away (strength applied), along
+// a unit axis of the point's tangent frame.
+struct Ripples {
+    float variance;
+    vec2 axis;
+};
+
+vec2 ripple_spread(Ripples r) { return r.variance * r.axis * r.axis; }
+
+// The macro normal with ripples across the wind and fine detail, and what the footprint
+// filtered away of the ripples.
+vec3 rippled_normal(SurfacePoint s, out Ripples filtered) {
     // The ripples' frame: +x the way the wind blows (from the compass bearing
     // u_wind_direction), in uv, which is the world's (x, z) on the dunes.
     float from = radians(u_wind_direction);
@@ -150,8 +159,7 @@ vec3 rippled_normal(SurfacePoint s, out float variance, out vec2 axis) {
                                RIPPLE_BEND * (transpose(frame) * height_grad));
     float gain = RIPPLE_SLOPE_GAIN * u_ripple_strength * (1.0 - u_no_ripples);
     vec2 grad = frame * r.slope * (1.0 - u_no_ripples);
-    variance = gain * gain * r.variance;
-    axis = axis_t;
+    filtered = Ripples(gain * gain * r.variance, axis_t);
     grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
     vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));
     return to_world(n_t, s);
@@ -160,8 +168,8 @@ vec3 rippled_normal(SurfacePoint s, out float variance, out vec2 axis) {
 // The surface point on its ripples: the rippled normal, bent towards the eye where a ripple's
 // back would face away from it (a hard dark patch that no real ripple shows: its back would be
 // hidden by its crest), with the tangent frame turned to it.
-SurfacePoint rippled_point(SurfacePoint s, vec3 v, out float variance, out vec2 axis) {
-    vec3 n = rippled_normal(s, variance, axis);
+SurfacePoint rippled_point(SurfacePoint s, vec3 v, out Ripples filtered) {
+    vec3 n = rippled_normal(s, filtered);
     float facing = dot(n, v);
     if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
     SurfacePoint r = s;

@@ -143,13 +143,14 @@ const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance
 const float FACING_BAND = 0.15;
 
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
-// their squares, and the variance of the ripples' slopes the footprint filtered away), as the grains themselves give it when each is resolved: at the mean normal
-// and four more whose nx, ny hold that mean and the variance along two axes exactly. Unit
-// normals rather than slopes: bounded, and the cosine of the light is linear in them. The axes
-// are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
-// turning away from the eye) depends on the eye: fixed texture axes would make the average
-// jump where the eye's azimuth crosses them. The same average at every scale, so that the far
-// range's diffuse light is the close range's.
+// their squares, and the variance of the ripples' slopes the footprint filtered away), as the
+// grains themselves give it when each is resolved: at the mean normal and four more whose nx,
+// ny hold that mean and the variance along two axes exactly. Unit normals rather than slopes:
+// bounded, and the cosine of the light is linear in them. The axes are the eye's azimuth and
+// its perpendicular, since what is not linear in the normal (a side turning away from the eye)
+// depends on the eye: fixed texture axes would make the average jump where the eye's azimuth
+// crosses them. The same average at every scale, so that the far range's diffuse light is the
+// close range's.
 vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L,
                             vec2 ripple_variance) {
     vec2 m = normals.xy;
@@ -192,15 +193,6 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
          + grain_transmission(kd, L.sun_direction, v, L.sun_radiance)
          + grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
 }
-
-// The ripples' slope variance that a pixel's footprint filtered away (rippled_normal), along
-// a unit axis of the point's tangent frame.
-struct Ripples {
-    float variance;
-    vec2 axis;
-};
-
-vec2 ripple_spread(Ripples r) { return r.variance * r.axis * r.axis; }
 
 struct Shaded {
     vec3 radiance;
@@ -331,7 +323,7 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     if (mode == MODE_LAMBERT) return shade_lambert(s, L);
     // The grains lie on the ripples: close and far shade the same rippled surface.
     Ripples rip;
-    SurfacePoint r = rippled_point(s, v, rip.variance, rip.axis);
+    SurfacePoint r = rippled_point(s, v, rip);
     if (mode == MODE_FAR) return shade_far(r, L, v, rip);
 
     // Past the cutoff the close term's share is negligible: none of its work is done.

@@ -8,8 +8,8 @@
 // band along the edges of the vertices' hexagons, where the grains of neighbouring copies lie
 // over one another, each grain whole or not at all (grain_rank). Up close the border between
 // copies runs along grain outlines, never along a line; far away a copy's mean is the tile's,
-// so no border shows. One copy per point keeps the cost of
-// one: the glints, the relief and the footprint's moments are those of the winning copy.
+// so no border shows. One copy per point keeps the cost of one: the glints, the relief and the
+// footprint's moments are those of the winning copy.
 // The offsets reach past the tile (TILE_COPY_SPREAD tiles), so sparkles, hashed on the ground's
 // texel grid, are drawn anew in every copy too.
 
@@ -24,14 +24,16 @@ const uint TILE_COPY_KEY = 0x5bd1e995u;
 struct TileCopy {
     vec2 tc;    // where the point lies in the copy (tiles)
     mat2 axes;  // the copy's symmetry: copy coordinates = axes · ground's + offset
+    uint key;   // the copy's hash, from its vertex
 };
 
 // The symmetry (swap, then mirror in x, in y) and offset of vertex `vertex`'s copy.
 TileCopy copy_of_vertex(ivec2 vertex, vec2 tc) {
     uint h = hash_cell(vertex, TILE_COPY_KEY);
+    TileCopy c;
+    c.key = h;
     vec2 sign_xy = vec2((h & 2u) != 0u ? -1.0 : 1.0, (h & 4u) != 0u ? -1.0 : 1.0);
     mat2 swap = (h & 1u) != 0u ? mat2(0.0, 1.0, 1.0, 0.0) : mat2(1.0);
-    TileCopy c;
     c.axes = mat2(sign_xy.x, 0.0, 0.0, sign_xy.y) * swap;
     vec2 offset = vec2(hash01(lowbias32(h ^ 0x27d4eb2fu)), hash01(lowbias32(h ^ 0x165667b1u)));
     c.tc = c.axes * tc + offset * TILE_COPY_SPREAD;
@@ -58,14 +60,14 @@ void copy_vertices(vec2 tc, out ivec2 vertex[3], out vec3 weight) {
     }
 }
 
-// A copy's grain at tc, ranked by a hash of the grain (its layer and identity, finest level) and
-// of the copy: independent of how the grain looks, so that the copies' borders show the tile's
+// A copy's grain at its tc, ranked by a hash of the grain (its layer and identity, finest level)
+// and of the copy: independent of how the grain looks, so that the copies' borders show the tile's
 // own mix of grains (ranking by height would favour the top layer's, and draw the borders as a
 // lighter honeycomb).
-float grain_rank(TileCopy c, uint copy_key) {
+float grain_rank(TileCopy c) {
     ivec2 texel = min(ivec2(floor(fract(c.tc) * u_texture_size)), ivec2(u_texture_size) - 1);
     uvec2 layer_grain = texelFetch(u_layer_grain, texel, 0).xy;
-    return hash01(lowbias32(layer_grain.y ^ lowbias32(layer_grain.x ^ copy_key)));
+    return hash01(lowbias32(layer_grain.y ^ lowbias32(layer_grain.x ^ c.key)));
 }
 
 // The copy that shows at tc, where the footprint's finest-level mip is lod: its nearest
@@ -84,13 +86,14 @@ TileCopy tile_copy(vec2 tc, float lod) {
     float bias = TILE_COPY_BIAS * exp2(max(lod, 0.0));
     // Away from the hexagons' edges no rank outweighs the nearest vertex: no fetch is made.
     float w_best = weight[nearest];
-    float w_second = weight.x + weight.y + weight.z - w_best - min(min(weight.x, weight.y), weight.z);
+    float w_least = min(min(weight.x, weight.y), weight.z);
+    float w_second = weight.x + weight.y + weight.z - w_best - w_least;
     if (bias * (w_best - w_second) < 1.0) {
         float best_score = -1.0;
         for (int i = 0; i < 3; ++i) {
             if (bias * (w_best - weight[i]) >= 1.0) continue;
             TileCopy c = i == nearest ? own : copy_of_vertex(vertex[i], tc);
-            float score = grain_rank(c, hash_cell(vertex[i], TILE_COPY_KEY)) + bias * weight[i];
+            float score = grain_rank(c) + bias * weight[i];
             if (score > best_score) {
                 best_score = score;
                 best = c;

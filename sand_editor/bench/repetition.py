@@ -59,29 +59,27 @@ def sample(image: np.ndarray, points: np.ndarray) -> np.ndarray:
     return top * (1 - fy) + bottom * fy
 
 
-def autocorrelation(ground: np.ndarray, lag: int, axis: int) -> float:
-    """Normalised autocorrelation of a 2D field at an integer lag along one axis."""
+def grid_strength(ground: np.ndarray) -> float:
+    """The larger, over both axes, of the normalised autocorrelation a tile away less its mean
+    over the neighbouring lags."""
     g = ground - ground.mean()
     variance = float((g * g).mean())
     if not variance > 0:
         return 0.0
-    a = np.moveaxis(g, axis, 0)
-    return float((a[:-lag] * a[lag:]).mean() / variance) if lag else 1.0
 
+    def at(lag: int, axis: int) -> float:
+        a = np.moveaxis(g, axis, 0)
+        return float((a[:-lag] * a[lag:]).mean() / variance)
 
-def grid_strength(ground: np.ndarray) -> float:
-    """The larger, over both axes, of the autocorrelation a tile away less its mean over the
-    neighbouring lags."""
-    strengths = []
-    for axis in (0, 1):
-        at_tile = autocorrelation(ground, TILE_SAMPLES, axis)
-        near = [
-            autocorrelation(ground, lag, axis)
-            for low, high in NEAR_LAGS
-            for lag in range(round(low * TILE_SAMPLES), round(high * TILE_SAMPLES) + 1)
-        ]
-        strengths.append(at_tile - float(np.mean(near)))
-    return max(strengths)
+    near_lags = [
+        lag
+        for low, high in NEAR_LAGS
+        for lag in range(round(low * TILE_SAMPLES), round(high * TILE_SAMPLES) + 1)
+    ]
+    return max(
+        at(TILE_SAMPLES, axis) - float(np.mean([at(lag, axis) for lag in near_lags]))
+        for axis in (0, 1)
+    )
 
 
 def measure(probe, preset, views) -> list[dict]:
