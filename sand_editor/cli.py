@@ -238,12 +238,16 @@ def _run_bench(args) -> int:
         from sand_editor.bench.render import main as bench_render
 
         return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
-    if args.what in ("appearance", "depth", "relief", "repetition"):
+    if args.what in ("appearance", "depth", "relief", "repetition", "band"):
         if args.sizes:
             raise CommandError("--sizes applies to the generator benchmark only")
-        if args.what == "repetition":
+        if args.what in ("repetition", "band"):
             if args.plot:
-                raise CommandError("--plot does not apply to the repetition benchmark")
+                raise CommandError(f"--plot does not apply to the {args.what} benchmark")
+            if args.what == "band":
+                from sand_editor.bench.band import main as bench_band
+
+                return bench_band(quick=args.quick, json_path=args.json)
             from sand_editor.bench.repetition import main as bench_repetition
 
             return bench_repetition(quick=args.quick, json_path=args.json)
@@ -418,6 +422,7 @@ def _parser() -> argparse.ArgumentParser:
             "depth",
             "relief",
             "repetition",
+            "band",
             "editor",
             "vr-link",
             "vr-runtime",

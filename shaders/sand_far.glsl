@@ -48,9 +48,10 @@ uniform float u_no_ripples;   // 0 on the dunes; 1 on objects (a tray, a sphere)
 // The profile rises slowly on the windward side and drops on the lee, more so on steep slopes.
 // Everything is an analytic function of the phase, so the footprint's filtering is too: the
 // phase varies over the pixel by σ, and the ripple's slope is the footprint's mean, attenuated
-// by exp(−σ²/2), which fades ripples smaller than a pixel smoothly (no moiré at any distance);
-// the slope variance the filtering removes is handed to the diffuse light's spread of normals
-// (as LEAN and Toksvig mapping do), so ripples too small to draw still roughen the light.
+// by exp(−σ²/2), which fades ripples smaller than a pixel smoothly (no moiré at any distance).
+// (Handing the slope variance the filter removes to the diffuse light's spread of normals, as
+// LEAN and Toksvig mapping do, was measured: against the frame supersampled 8×8 at a low sun it
+// left the shipped sands' far frames 2–5 % darker at 10–30 m, against 0–2 % without it.)
 const float RIPPLE_WAVELENGTH = 0.09;  // metres
 const float RIPPLE_SHARPNESS = 0.5;    // the profile's asymmetry on gentle ground (0: a sine)
 const float RIPPLE_STEEP_SHARPNESS = 0.9;
@@ -60,6 +61,11 @@ const float DEFECT_CELL = 1.6;         // metres: one fork pair at most per cell
 const float DEFECT_CHANCE = 0.8;
 const float DEFECT_REACH = 0.3;        // metres from its crest's segment that a pair bends crests
 const uint RIPPLE_KEY = 0x2c1b3c6du;
+// The footprint's phase variance per squared pixel step: a Gaussian of 0.41 pixels' deviation.
+// FLIP against the frame supersampled 8×8 (bench depth's view) at 3 / 10 / 30 m: 1/3 gave
+// 0.103 / 0.059 / 0.074, this 0.099 / 0.048 / 0.082, a box's 1/12 0.101 / 0.040 / 0.085; the
+// wider filters alias less (test_ripple_field.py), the narrower keep the nearer ripples sharp.
+const float RIPPLE_FOOTPRINT = 1.0 / 6.0;
 
 // Smooth value noise in [−1, 1] with its gradient (per unit of p), on a hashed lattice.
 vec3 value_noise(vec2 p, uint key) {
@@ -97,53 +103,33 @@ float ripple_defect(vec2 q) {
     return sign_ * winding * (1.0 - smoothstep(0.35 * reach, reach, to_segment));
 }
 
-struct RippleSlope {
-    vec2 slope;      // mean slope over the footprint, in the wind's frame (along, across)
-    float variance;  // of the slope about it over the footprint, along the phase's gradient
-};
-
 // The ripples' slope at q (metres in the wind's frame: x along the wind), filtered over the
 // footprint of derivatives dx, dy, on gentle (steep = 0) to steep (1) ground; the phase is set
 // back by `bend` metres (RIPPLE_BEND times the dune's height), whose gradient is bend_grad.
-RippleSlope ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_grad) {
+vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_grad) {
     vec3 wander = value_noise(q / RIPPLE_WANDER_SCALE, RIPPLE_KEY);
     float k = 2.0 * PI / RIPPLE_WAVELENGTH;
     float shift = RIPPLE_WANDER * RIPPLE_WAVELENGTH;  // metres of wander per unit of noise
     float phase = k * (q.x - bend + shift * wander.x) + ripple_defect(q);
     vec2 along = vec2(1.0, 0.0) - bend_grad + shift * wander.yz / RIPPLE_WANDER_SCALE;  // ∇phase/k
-    // The phase's variance over the pixel's footprint, a Gaussian of about 0.6 pixels' deviation
-    // (a box's third of the squared width would leave ripples past the pixels' Nyquist rate at
-    // a sixth of their contrast: moiré), along each axis, or (isotropic, as mip mapping
-    // filters) the longer one in both.
+    // The phase's variance over the pixel's footprint, RIPPLE_FOOTPRINT per squared step of a
+    // pixel: along each of its axes, or (isotropic, as mip mapping filters) the longer one in
+    // both.
     float gx = k * dot(along, dx), gy = k * dot(along, dy);
-    float spread2 = u_sharp_ripples != 0
-        ? (gx * gx + gy * gy) / 3.0
-        : k * k * dot(along, along) * max(dot(dx, dx), dot(dy, dy)) * (2.0 / 3.0);
+    float spread2 = RIPPLE_FOOTPRINT * (u_sharp_ripples != 0
+        ? gx * gx + gy * gy
+        : 2.0 * k * k * dot(along, along) * max(dot(dx, dx), dot(dy, dy)));
     float keep = exp(-0.5 * spread2);
     // h = sin(t + s·sin t)/k: its slope is dh/dt·∇t/k, largest 1 at the lee (over 1 + s).
     // The asymmetry is the profile's harmonics, which the footprint filters as its second:
     // exp(−4σ²/2) against the fundamental's exp(−σ²/2).
     float sharp = mix(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, steep) * exp(-1.5 * spread2);
     float profile = cos(phase + sharp * sin(phase)) * (1.0 + sharp * cos(phase)) / (1.0 + sharp);
-    RippleSlope r;
-    r.slope = keep * profile * along;
-    // A profile's mean square is about ½ of its peak's; what the filter took is (1 − keep²).
-    r.variance = 0.5 * (1.0 - keep * keep) * dot(along, along);
-    return r;
+    return keep * profile * along;
 }
 
-// The ripples' slope variance that a pixel's footprint filtered away (strength applied), along
-// a unit axis of the point's tangent frame.
-struct Ripples {
-    float variance;
-    vec2 axis;
-};
-
-vec2 ripple_spread(Ripples r) { return r.variance * r.axis * r.axis; }
-
-// The macro normal with ripples across the wind and fine detail, and what the footprint
-// filtered away of the ripples.
-vec3 rippled_normal(SurfacePoint s, out Ripples filtered) {
+// The macro normal with ripples across the wind and fine detail.
+vec3 rippled_normal(SurfacePoint s) {
     // The ripples' frame: +x the way the wind blows (from the compass bearing
     // u_wind_direction), in uv, which is the world's (x, z) on the dunes.
     float from = radians(u_wind_direction);
@@ -154,12 +140,9 @@ vec3 rippled_normal(SurfacePoint s, out Ripples filtered) {
     vec2 height_grad = -vec2(s.normal.x, s.normal.z) / up;
     float steep = smoothstep(0.2, 0.45, length(s.normal.xz));
     vec2 dx = transpose(frame) * dFdx(s.uv), dy = transpose(frame) * dFdy(s.uv);
-    RippleSlope r = ripples_at(transpose(frame) * s.uv, dx, dy, steep,
-                               RIPPLE_BEND * s.position.y,
-                               RIPPLE_BEND * (transpose(frame) * height_grad));
-    float gain = RIPPLE_SLOPE_GAIN * u_ripple_strength * (1.0 - u_no_ripples);
-    vec2 grad = frame * r.slope * (1.0 - u_no_ripples);
-    filtered = Ripples(gain * gain * r.variance, axis_t);
+    vec2 slope = ripples_at(transpose(frame) * s.uv, dx, dy, steep, RIPPLE_BEND * s.position.y,
+                            RIPPLE_BEND * (transpose(frame) * height_grad));
+    vec2 grad = frame * slope * (1.0 - u_no_ripples);
     grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
     vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));
     return to_world(n_t, s);
@@ -168,8 +151,8 @@ vec3 rippled_normal(SurfacePoint s, out Ripples filtered) {
 // The surface point on its ripples: the rippled normal, bent towards the eye where a ripple's
 // back would face away from it (a hard dark patch that no real ripple shows: its back would be
 // hidden by its crest), with the tangent frame turned to it.
-SurfacePoint rippled_point(SurfacePoint s, vec3 v, out Ripples filtered) {
-    vec3 n = rippled_normal(s, filtered);
+SurfacePoint rippled_point(SurfacePoint s, vec3 v) {
+    vec3 n = rippled_normal(s);
     float facing = dot(n, v);
     if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
     SurfacePoint r = s;

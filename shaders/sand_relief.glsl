@@ -9,10 +9,15 @@
 // vector, so each sees the grains at their own depth; from where it lands, a ray towards the
 // light finds how far the grains in front rise above it (a soft shadow). Both fade in as a
 // grain cell grows from RELIEF_FADE_PX.x to .y pixels, and nothing of it runs below that, so mid
-// and far range pay nothing.
+// and far range pay nothing. What the shadows take from a pixel of many grains is not lost
+// there: the material measures its mean per light and eye direction (relief_visibility.frag)
+// and the far range, and the close range where the relief fades, are lit by that.
 
 uniform float u_grain_cell;  // a grain cell's edge, in tiles (1 / the generator's period)
 uniform int u_relief;        // 1: grains with relief; 0: flat (the relief's cost measured apart)
+// The mean share of a light that reaches what an eye sees of the grains: x the light's cosine,
+// y the eye's, z the azimuth between them over π (RELIEF_TABLE texels, ends on the ends).
+uniform sampler3D u_relief_visibility;
 
 const float RELIEF_DEPTH_CELLS = 0.5;
 const vec2 RELIEF_FADE_PX = vec2(2.0, 5.0);
@@ -52,11 +57,23 @@ float relief_shadow(vec2 tc, float depth, vec3 l, float depth_tc, float lod) {
     return 1.0 - clamp(SHADOW_SOFTNESS * blocked, 0.0, 1.0);
 }
 
+// The mean share of light along tangent-space l that reaches the grains an eye along e sees.
+float mean_relief_visibility(vec3 l, vec3 e) {
+    if (u_relief == 0 || l.z <= 0.0) return 1.0;
+    float across = length(l.xy) * length(e.xy);
+    float azimuth = across > 1e-8 ? acos(clamp(dot(l.xy, e.xy) / across, -1.0, 1.0)) : 0.0;
+    vec3 at = vec3(clamp(l.z, 0.0, 1.0), clamp(e.z, 0.0, 1.0), azimuth / PI);
+    vec3 size = vec3(RELIEF_TABLE);
+    return texture(u_relief_visibility, (at * (size - 1.0) + 0.5) / size).r;
+}
+
 // The eye's ray through the grains (tangent-space `e` towards the eye, `l0`, `l1` towards the
-// lights, `lit` whether each shines here at all), at weight w in (0, 1]. A light that does not
-// shine (below the horizon, or in the scene's shadow) is not marched.
+// lights, `lit` whether each shines here at all), with the parallax at weight w in (0, 1]; the
+// shadows are the full relief's. A light that does not shine (below the horizon, or in the
+// scene's shadow) is not marched.
 Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float w, float lod) {
-    float depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell * w;
+    float full_depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell;
+    float depth_tc = full_depth_tc * w;
     vec2 step_tc = -e.xy / max(e.z, MIN_RELIEF_COSINE) * depth_tc / float(RELIEF_STEPS);
     float step_depth = 1.0 / float(RELIEF_STEPS);
     float depth = 0.0, ground = 1.0 - relief_height(tc, lod);
@@ -75,7 +92,7 @@ Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float w, float lo
     float hit_depth = mix(previous_depth, depth, t);
     Relief r;
     r.tc = tc + step_tc * (hit_depth / step_depth);
-    r.sun = lit.x ? mix(1.0, relief_shadow(r.tc, hit_depth, l0, depth_tc, lod), w) : 1.0;
-    r.moon = lit.y ? mix(1.0, relief_shadow(r.tc, hit_depth, l1, depth_tc, lod), w) : 1.0;
+    r.sun = lit.x ? relief_shadow(r.tc, hit_depth, l0, full_depth_tc, lod) : 1.0;
+    r.moon = lit.y ? relief_shadow(r.tc, hit_depth, l1, full_depth_tc, lod) : 1.0;
     return r;
 }

@@ -143,18 +143,16 @@ const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance
 const float FACING_BAND = 0.15;
 
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
-// their squares, and the variance of the ripples' slopes the footprint filtered away), as the
-// grains themselves give it when each is resolved: at the mean normal and four more whose nx,
-// ny hold that mean and the variance along two axes exactly. Unit normals rather than slopes:
-// bounded, and the cosine of the light is linear in them. The axes are the eye's azimuth and
-// its perpendicular, since what is not linear in the normal (a side turning away from the eye)
-// depends on the eye: fixed texture axes would make the average jump where the eye's azimuth
-// crosses them. The same average at every scale, so that the far range's diffuse light is the
-// close range's.
-vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L,
-                            vec2 ripple_variance) {
+// their squares), as the grains themselves give it when each is resolved: at the mean normal
+// and four more whose nx, ny hold that mean and the variance along two axes exactly. Unit
+// normals rather than slopes: bounded, and the cosine of the light is linear in them. The axes
+// are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
+// turning away from the eye) depends on the eye: fixed texture axes would make the average
+// jump where the eye's azimuth crosses them. The same average at every scale, so that the far
+// range's diffuse light is the close range's.
+vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L) {
     vec2 m = normals.xy;
-    vec2 variance = max(normals.zw - m * m, 0.0) + ripple_variance;
+    vec2 variance = max(normals.zw - m * m, 0.0);
     vec2 towards = to_tangent(v, s).xy;
     float reach = length(towards);
     vec2 along = reach > 1e-5 ? towards / reach : vec2(1.0, 0.0);
@@ -219,7 +217,7 @@ void lights_in_tangent(SurfacePoint s, Lighting L, inout Footprint f) {
 // Close up: the footprint's albedo, mean grain normal and density of mirroring facets, drawn
 // as sparkles. reference_look: the reference's glint instead (its gain and distance boost on
 // the expectation over its kernel, no sparkle).
-Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look, Ripples rip) {
+Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     Footprint f;
     f.tc = s.uv * u_uv_scale;
     f.dx = dFdx(f.tc);
@@ -234,20 +232,24 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look, Ripp
         f.dx = copy.axes * f.dx;
         f.dy = copy.axes * f.dy;
         s = in_copy_axes(s, copy.axes);
-        rip.axis = copy.axes * rip.axis;
     }
     lights_in_tangent(s, L, f);
+    // The light that reaches the grains: the pixel's own shadows where the relief is drawn,
+    // their mean over many grains where it is not (as far away), and between the two as the
+    // relief fades in.
+    vec3 e = normalize(f.to_eye);
+    vec2 reaching = vec2(mean_relief_visibility(f.light0, e), mean_relief_visibility(f.light1, e));
     float relief = relief_weight(texels.x);
     if (relief > 0.0) {
         // The grains at their depth for this eye, and the light that reaches where it looks.
-        Relief r = relief_at(f.tc, normalize(f.to_eye), f.light0, f.light1,
-                             bvec2(f.lit0, f.lit1), relief, c.lod);
+        Relief r = relief_at(f.tc, e, f.light0, f.light1, bvec2(f.lit0, f.lit1), relief, c.lod);
         f.tc = r.tc;
-        L.sun_radiance *= r.sun;
-        L.moon_radiance *= r.moon;
-        f.lit0 = f.lit0 && r.sun > 0.0;
-        f.lit1 = f.lit1 && r.moon > 0.0;
+        reaching = mix(reaching, vec2(r.sun, r.moon), relief);
     }
+    L.sun_radiance *= reaching.x;
+    L.moon_radiance *= reaching.y;
+    f.lit0 = f.lit0 && reaching.x > 0.0;
+    f.lit1 = f.lit1 && reaching.y > 0.0;
     vec3 albedo;
     vec2 slope;
     vec4 normals;
@@ -271,26 +273,28 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look, Ripp
     } else {
         c.glint = sand_specular(densities, h[0], h[1], L);
     }
-    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L, ripple_spread(rip)) + c.glint;
+    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L) + c.glint;
     return c;
 }
 
 // Far away: the tile's average albedo and its whole distribution of mirroring facets on the
 // macro normal, no sparkle: the limit of shade_close as the footprint covers the tile.
-vec3 shade_far(SurfacePoint s, Lighting L, vec3 v, Ripples rip) {
+vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     Footprint f = Footprint(s.uv * u_uv_scale, vec2(0.0), vec2(0.0), vec3(0.0), vec3(0.0),
                             vec3(0.0), false, false);
     lights_in_tangent(s, L, f);
+    // Many grains to a pixel: their shadows' mean share of each light (sand_relief.glsl).
+    vec3 e = normalize(f.to_eye);
+    L.sun_radiance *= mean_relief_visibility(f.light0, e);
+    L.moon_radiance *= mean_relief_visibility(f.light1, e);
     HalfVector h0, h1;
     half_vectors_at(f, vec2(0.0), h0, h1);
     vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
     vec2 centre = vec2(0.5);
     vec4 normals = textureLod(u_normal_moments, centre, u_max_lod);
-    return filtered_diffuse_light(kd, normals, s, v, L, ripple_spread(rip))
+    return filtered_diffuse_light(kd, normals, s, v, L)
          + sand_specular(tile_factors(h0, h1), h0, h1, L);
 }
-
-
 
 vec3 shade_lambert(SurfacePoint s, Lighting L) {
     vec3 kd = u_average_albedo / PI;
@@ -322,17 +326,16 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     if (mode == MODE_BLEND) return vec3(blend);
     if (mode == MODE_LAMBERT) return shade_lambert(s, L);
     // The grains lie on the ripples: close and far shade the same rippled surface.
-    Ripples rip;
-    SurfacePoint r = rippled_point(s, v, rip);
-    if (mode == MODE_FAR) return shade_far(r, L, v, rip);
+    SurfacePoint r = rippled_point(s, v);
+    if (mode == MODE_FAR) return shade_far(r, L, v);
 
     // Past the cutoff the close term's share is negligible: none of its work is done.
 #if defined SAND_FAR_ONLY
-    return shade_far(r, L, v, rip);
+    return shade_far(r, L, v);
 #endif
     bool whole = mode == MODE_FULL || mode == MODE_REFERENCE_LOOK;
-    if (whole && blend > u_close_cutoff) return shade_far(r, L, v, rip);
-    Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK, rip);
+    if (whole && blend > u_close_cutoff) return shade_far(r, L, v);
+    Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK);
 
     if (mode == MODE_CLOSE) return close.radiance;
     if (mode == MODE_GLINTS) return close.glint;
@@ -340,6 +343,6 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
     // Both ranges hold the same light on average (the far one is the close one's limit), so
     // the blend only decides which work is done.
-    vec3 far = blend > 1e-4 ? shade_far(r, L, v, rip) : vec3(0.0);
+    vec3 far = blend > 1e-4 ? shade_far(r, L, v) : vec3(0.0);
     return mix(close.radiance, far, blend);
 }

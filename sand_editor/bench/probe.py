@@ -143,6 +143,7 @@ class MaterialProbe:
             own = {"u_glint_filter": GLINT_FILTERS[self.glint_filter],
                    "u_ground_truth_samples": int(self.ground_truth_samples),
                    "u_relief": int(self.relief),
+                   "u_sharp_ripples": 1,  # the renderer's filtering of the ripples
                    "u_tile_variation": int(self.tile_variation)}  # fmt: skip
             for name, value in own.items():
                 set_uniform(p, name, value)  # the far-only variant has no glints

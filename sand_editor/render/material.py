@@ -60,6 +60,10 @@ HOLE_SCALE2 = 0.25
 FACET_SIZE_RANGE = 4.0
 # The mip level whose clear-grain slopes measure the facet lobe's correction (facet_lobe.py).
 LOBE_LEVEL = 2
+# The grains' mean shadowing table (relief_visibility.frag): light cosines, eye cosines and
+# azimuths between them, and the points of the tile each entry averages.
+RELIEF_TABLE = (9, 9, 7)
+RELIEF_SAMPLES = 192
 # Constants the material's shaders share with Python, as #defines: never copied by hand.
 SHADER_DEFINES = {
     "HOLE_SCALE2": repr(HOLE_SCALE2),
@@ -71,6 +75,8 @@ SHADER_DEFINES = {
     "SHADOW_CASCADES": CASCADES,
     "LOBE_TILTS": LOBE_TILTS_DEG.size,
     "LOBE_TILT_MAX": repr(float(np.radians(LOBE_TILT_MAX_DEG))),
+    "RELIEF_TABLE": "ivec3({}, {}, {})".format(*RELIEF_TABLE),
+    "RELIEF_SAMPLES": RELIEF_SAMPLES,
 }
 
 
@@ -149,6 +155,19 @@ class SandMaterial:
         for texture in self._built:
             texture.build_mipmaps()  # the levels, made once; each build refills them
         self._build_fbo = keep(ctx.framebuffer(list(self._built)))
+        lights, eyes, azimuths = RELIEF_TABLE
+        self._visibility_program = keep(
+            fullscreen_program(ctx, "relief_visibility.frag", SHADER_DEFINES)
+        )
+        self._visibility_target = keep(ctx.texture((lights * azimuths, eyes), 1, dtype="f4"))
+        self._visibility_fbo = keep(ctx.framebuffer([self._visibility_target]))
+        self.relief_visibility_texture = keep(
+            ctx.texture3d((lights, eyes, azimuths), 1, dtype="f4")
+        )
+        self.relief_visibility_texture.repeat_x = False
+        self.relief_visibility_texture.repeat_y = False
+        self.relief_visibility_texture.repeat_z = False
+        self.relief_visibility = np.ones((azimuths, eyes, lights), dtype=np.float32)
         self.detail = self._map(detail_slopes(DETAIL_MAP_SIZE, seed=3))
 
     @staticmethod
@@ -223,7 +242,9 @@ class SandMaterial:
             self.grains_generation = preset.generation
         build_key = (self.grains_generation, *(preset.get(spec.path) for spec in _MOMENT_FIELDS))
         if self._built_for != build_key:
-            self._build_textures(preset)
+            # The relief's mean shadowing is the grains' alone: made again with new grains only.
+            new_grains = self._built_for is None or self._built_for[0] != build_key[0]
+            self._build_textures(preset, new_grains)
             self._built_for = build_key
         self.preset = preset
         return True
@@ -245,7 +266,7 @@ class SandMaterial:
         self._built_for = None
         self.grains_generation = textures.generation
 
-    def _build_textures(self, preset: Preset) -> None:
+    def _build_textures(self, preset: Preset, new_grains: bool = True) -> None:
         # Coloured by the generation of the grains held, which may not yet be the preset's.
         nc = NoiseConstants.from_generation(self.grains_generation)
         program = self._build
@@ -275,6 +296,25 @@ class SandMaterial:
         texel = texel.astype(np.float32)
         self.average_albedo = texel[:3].copy()
         self.lobe_correction = self._measure_lobe_correction()
+        if new_grains:
+            self.relief_visibility = self._measure_relief_visibility()
+
+    def _measure_relief_visibility(self) -> np.ndarray:
+        """The grains' mean shadowing of a light as an eye sees them, (azimuth, eye cosine,
+        light cosine) (relief_visibility.frag), into the texture the surface reads."""
+        program = self._visibility_program
+        self.albedo.use(location=0)
+        set_uniform(program, "u_albedo", 0)
+        set_uniform(program, "u_texture_size", float(self.texture_size))
+        set_uniform(program, "u_grain_cell", 1.0 / float(self.grains_generation.period))
+        lights, eyes, azimuths = RELIEF_TABLE
+        with drawing_into(self.ctx, self._visibility_fbo):
+            self.ctx.viewport = (0, 0, lights * azimuths, eyes)
+            draw_fullscreen(self.ctx, program)
+        flat = np.frombuffer(read_without_gil(self._visibility_target), dtype=np.float32)
+        table = flat.reshape(eyes, azimuths, lights).transpose(1, 0, 2).copy()
+        self.relief_visibility_texture.write(table.tobytes())
+        return table
 
     def _measure_lobe_correction(self) -> np.ndarray:
         """The rotated facet lobe's light over the slope moments' (facet_lobe.py), measured on
@@ -310,6 +350,7 @@ class SandMaterial:
             "u_normal_moments": self.normal_moments,
             "u_detail": self.detail,
             "u_layer_grain": self._grains.layer_grain,  # the tile's copies' borders
+            "u_relief_visibility": self.relief_visibility_texture,
         }
         # Every texture keeps its own unit whether or not a program uses it: programs sharing
         # these bindings (a surface drawn in near and far passes) then never disagree.

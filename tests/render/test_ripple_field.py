@@ -1,5 +1,6 @@
 """The wind ripples (shaders/sand_far.glsl): made where they are seen, so they never repeat, and
 filtered analytically, so that far away they neither alias into moiré nor change the light."""
+# The probe draws with the renderer's filtering along each pixel's footprint.
 
 from __future__ import annotations
 
@@ -19,7 +20,6 @@ STRONG_RIPPLES = {"shading.ripple_strength": 0.3, "shading.detail_strength": 0.0
 LOW_SUN = np.array([0.25, 0.3, -0.92])  # 17° up: the ripples' shading at its strongest
 SMALL = (160, 90)
 SUPERSAMPLE = 8
-MOIRE_LIMIT = 0.1  # 0.06 at 30 m; unfiltered ripples 0.74
 
 
 @pytest.fixture(scope="module")
@@ -52,16 +52,35 @@ def test_the_ripples_never_repeat(material, gl_clean):
         assert change > 0.05, f"a view {shift} m along matches: {change:.3f}"
 
 
-@pytest.mark.parametrize("distance", [30.0, 100.0])
-def test_far_ripples_match_their_supersampled_truth(material, gl_clean, distance):
-    """Ripples a fraction of a pixel wide are drawn as the 8×8 supersampled frame shows them:
-    no moiré (the frames agree pixel by pixel), and the light the ripples no longer draw kept
-    (the frames agree in the mean)."""
+def _against_truth(material, distance) -> tuple[float, float]:
+    """The frame's ground mean over its 8×8 supersampled truth's, and their relative RMS."""
     small = _far_frame(material, SMALL, distance)
     big = _far_frame(material, (SMALL[0] * SUPERSAMPLE, SMALL[1] * SUPERSAMPLE), distance)
     truth = big.reshape(SMALL[1], SUPERSAMPLE, SMALL[0], SUPERSAMPLE).mean(axis=(1, 3))
     ground = slice(SMALL[1] * 2 // 5, None)  # below the horizon, which is at 15° up
     small, truth = small[ground], truth[ground]
-    assert small.mean() == pytest.approx(truth.mean(), rel=0.03)
-    error = np.sqrt(np.mean((small - truth) ** 2)) / truth.mean()
-    assert error < MOIRE_LIMIT, f"relative RMS {error:.3f} against the supersampled frame"
+    error = float(np.sqrt(np.mean((small - truth) ** 2)) / truth.mean())
+    return float(small.mean() / truth.mean()), error
+
+
+@pytest.mark.parametrize("name", ["paper-default", "black-volcanic", "pale-quartz", "red-desert"])
+@pytest.mark.parametrize("distance", [30.0, 100.0])
+def test_far_ripples_match_their_supersampled_truth(gl_ctx, gl_clean, name, distance):
+    """Every shipped sand's ripples, a fraction of a pixel wide, are drawn as the 8×8
+    supersampled frame shows them at a low sun: the same light (measured within 1.6 %) and no
+    moiré (relative RMS at most 0.040)."""
+    material = SandMaterial(gl_ctx, 64)
+    try:
+        material.update(Preset.load(bundled_preset(name)).replace(**{"shading.detail_strength": 0}))
+        ratio, error = _against_truth(material, distance)
+    finally:
+        material.release()
+    assert ratio == pytest.approx(1.0, abs=0.03)
+    assert error < 0.06, f"relative RMS {error:.3f} against the supersampled frame"
+
+
+def test_strong_ripples_do_not_alias_far_away(material, gl_clean):
+    """Ripples of strength 0.3 at 30 m: relative RMS 0.14 against the supersampled frame (0.81
+    with the ripples unfiltered, where moiré covers the ground)."""
+    _, error = _against_truth(material, 30.0)
+    assert error < 0.25, f"relative RMS {error:.3f} against the supersampled frame"
