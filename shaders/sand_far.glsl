@@ -62,9 +62,10 @@ const float DEFECT_CHANCE = 0.8;
 const float DEFECT_REACH = 0.3;        // metres from its crest's segment that a pair bends crests
 const uint RIPPLE_KEY = 0x2c1b3c6du;
 // The footprint's phase variance per squared pixel step: a Gaussian of 0.41 pixels' deviation.
-// FLIP against the frame supersampled 8×8 (bench depth's view) at 3 / 10 / 30 m: 1/3 gave
-// 0.103 / 0.059 / 0.074, this 0.099 / 0.048 / 0.082, a box's 1/12 0.101 / 0.040 / 0.085; the
-// wider filters alias less (test_ripple_field.py), the narrower keep the nearer ripples sharp.
+// FLIP against the frame supersampled 8×8 (bench depth's view) at 3 / 10 / 30 m, measured with
+// a slope-variance hand-off since taken out: 1/3 gave 0.103 / 0.059 / 0.074, this 0.099 / 0.048
+// / 0.082, a box's 1/12 0.101 / 0.040 / 0.085; as shipped, this gives 0.102 / 0.049 / 0.072.
+// The wider filters alias less (test_ripple_field.py), the narrower keep nearer ripples sharp.
 const float RIPPLE_FOOTPRINT = 1.0 / 6.0;
 
 // Smooth value noise in [−1, 1] with its gradient (per unit of p), on a hashed lattice.
