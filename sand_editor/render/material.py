@@ -41,7 +41,7 @@ from sand_editor.render.facet_lobe import (
 )
 from sand_editor.render.far_brdf import sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
-from sand_editor.render.shadows import CASCADES
+from sand_editor.render.shadows import SHADER_DEFINES as SHADOW_DEFINES
 
 DEFAULT_TEXTURE_SIZE = 1024
 GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
@@ -72,7 +72,7 @@ SHADER_DEFINES = {
     "PROFILE_TOP": repr(PROFILE_OFFSET + PROFILE_SCALE),
     "LAYER_COLOURS": MAX_LAYERS * 4,
     "MAX_LAYERS": MAX_LAYERS,
-    "SHADOW_CASCADES": CASCADES,
+    **SHADOW_DEFINES,
     "LOBE_TILTS": LOBE_TILTS_DEG.size,
     "LOBE_TILT_MAX": repr(float(np.radians(LOBE_TILT_MAX_DEG))),
     "RELIEF_TABLE": "ivec3({}, {}, {})".format(*RELIEF_TABLE),

@@ -4,10 +4,8 @@ command line all draw through this class."""
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
-from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -25,71 +23,23 @@ from sand_editor.render.exposure import EyeAdaptation, light_exposure, metered_e
 from sand_editor.render.material import surface_defines
 from sand_editor.render.modes import check_mode, mode_index
 from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain
-from sand_editor.render.shadows import SunShadows
+from sand_editor.render.scene import FrameScene, SandMesh, SceneMeshes
+from sand_editor.render.shadows import SceneShadows, SunShadows
 from sand_editor.render.sky import SKY_GRADIENT_EXPONENT, SkyState
-from sand_editor.render.terrain import DuneTerrain, sphere_mesh
+from sand_editor.render.terrain import DuneTerrain
 
 DEBUG_MODES = frozenset({"blend", "normals", "mip"})
 GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the horizon
 SUN_ANGULAR_RADIUS = math.radians(0.6)  # twice the real sun: readable on small previews
 MOON_ANGULAR_RADIUS = math.radians(0.6)
-TERRAIN_SEGMENTS = 96
-_VERTEX_FORMAT = "3f 3f 3f 2f"
-_VERTEX_ATTRIBUTES = ("a_position", "a_normal", "a_tangent", "a_uv")
-_POSITION_FORMAT = "3f 8x4"  # the shadow casters read the position alone
-_SERIALS = itertools.count()
-
-
-class _Mesh:
-    """Vertex arrays of a mesh dict (``position`` relative to ``origin``), one per surface
-    program and one of positions for the shadow maps. ``serial`` names this mesh for good (a
-    rebuilt mesh is another one); ``top`` is its highest point (world y); ``indices`` the
-    length of its index buffer."""
-
-    def __init__(self, ctx: moderngl.Context, programs, depth_program, mesh: dict, origin) -> None:
-        vertices = np.hstack([mesh["position"], mesh["normal"], mesh["tangent"], mesh["uv"]])
-        self.origin = origin
-        self.serial = next(_SERIALS)
-        self.top = float(origin[1] + np.max(mesh["position"][:, 1]))
-        # A mesh of rings (the terrain's): their radii about ring_center, so that a shadow map
-        # draws only the rings that can cast into it.
-        self.rings = mesh.get("rings")
-        self.no_ripples = 0.0 if mesh.get("ripples") else 1.0  # wind ripples: the dunes only
-        self.ring_center = mesh.get("ring_center")
-        self.buffer = ctx.buffer(vertices.astype(np.float32).tobytes())
-        self.index = ctx.buffer(mesh["index"].astype(np.uint32).tobytes())
-
-        def vao(prog, layout):
-            buffers = [(self.buffer, *layout)]
-            return ctx.vertex_array(prog, buffers, index_buffer=self.index, index_element_size=4)
-
-        self.vaos = [vao(prog, (_VERTEX_FORMAT, *_VERTEX_ATTRIBUTES)) for prog in programs]
-        self.depth_vao = vao(depth_program, (_POSITION_FORMAT, "a_position"))
-        self.indices = len(mesh["index"])
-        self.triangles = self.indices // 3
-
-    def release(self) -> None:
-        for obj in (*self.vaos, self.depth_vao, self.buffer, self.index):
-            obj.release()
-
-
-@dataclass(frozen=True)
-class FrameScene:
-    """What one frame draws in the sand material, chosen once from the head: the terrain's
-    level of detail, the sphere and the fixed objects. Every eye of the frame draws the same
-    meshes, so two eyes never disagree and nothing is rebuilt between them."""
-
-    terrain: _Mesh
-    objects: tuple[_Mesh, ...] = ()
-    head: Camera | None = None  # what the shadow maps are fitted to
 
 
 class SandRenderer:
     """Draws the desert in the sand material.
 
     ``show_sphere`` puts a sand-covered sphere on the ground near what the camera looks at.
-    ``add_object`` adds fixed sand-covered meshes (a workbench, a box of sand).
-    ``terrain_meshes_built`` counts terrain level-of-detail rebuilds.
+    ``add_object`` adds fixed sand-covered meshes (a workbench, a box of sand), ``add_caster``
+    fixed triangles drawn by someone else that cast shadows on them (the workbench's desk).
     """
 
     def __init__(self, ctx: moderngl.Context, terrain: DuneTerrain | None = None) -> None:
@@ -120,13 +70,8 @@ class SandRenderer:
         self._shadows = keep(SunShadows(ctx))
         self._shadow_frame = None
         self._shadow_scene = None  # (scene, sky) the shadow frame was made for
-        self._terrain_mesh: _Mesh | None = None
-        self._terrain_key = None
-        self._sphere_mesh: _Mesh | None = None
-        self._sphere_key = None
-        self._fixed_objects: list[_Mesh] = []
+        self.meshes = SceneMeshes(ctx, self.terrain, self._surfaces, self._shadows.program)
         self._readback: moderngl.Framebuffer | None = None
-        self.terrain_meshes_built = 0
 
     def set_material(self, material) -> None:
         """The ``SandMaterial`` (anything with ``bind(program, first_unit) -> int``)."""
@@ -135,13 +80,24 @@ class SandRenderer:
     def add_object(self, mesh: dict, origin) -> None:
         """A fixed object in the sand material: ``mesh`` as ``terrain.sphere_mesh`` makes it,
         positions relative to ``origin`` (world, float64)."""
-        origin = np.asarray(origin, dtype=np.float64)
-        self._fixed_objects.append(self._mesh(mesh, origin))
+        self.meshes.add_object(mesh, origin)
+
+    def add_caster(self, triangles, origin) -> None:
+        """Fixed triangles that cast shadows and are drawn by someone else (``render``'s
+        ``extra``): (n, 3) world positions, three per triangle, kept relative to ``origin``."""
+        self.meshes.add_caster(triangles, origin)
 
     def clear_objects(self) -> None:
-        """Remove (and release) every fixed object."""
-        while self._fixed_objects:
-            self._fixed_objects.pop().release()
+        """Remove (and release) every fixed object and caster."""
+        self.meshes.clear_objects()
+
+    @property
+    def terrain_meshes_built(self) -> int:
+        """How many times the terrain's level of detail was rebuilt."""
+        return self.meshes.terrain_meshes_built
+
+    def terrain_level_of_detail(self, eye, ground: float | None = None) -> tuple:
+        return self.meshes.terrain_level_of_detail(eye, ground)
 
     # ---- frame ------------------------------------------------------------------------------
 
@@ -149,12 +105,9 @@ class SandRenderer:
         """The scene objects for one frame seen from ``head`` (for stereo, the point between
         the eyes looking where the head looks); pass it to ``render`` for every eye. It holds
         until the next ``prepare_frame``, which may replace the meshes it names."""
-        objects = list(self._fixed_objects)
-        if self.show_sphere if show_sphere is None else show_sphere:
-            sphere = self._sphere(head)
-            if sphere is not None:
-                objects.append(sphere)
-        return FrameScene(self._terrain(head.eye), tuple(objects), head)
+        return self.meshes.prepare_frame(
+            head, self.show_sphere if show_sphere is None else show_sphere
+        )
 
     def render(
         self,
@@ -175,8 +128,9 @@ class SandRenderer:
         from ``camera`` (one view, as in the editor). Debug modes (``blend``, ``normals``,
         ``mip``) write the material's values unexposed and unblended, over black. Without
         ``exposure`` the frame is metered (and with ``adapt_over_time`` the eye's adaptation
-        follows it, the first frame jumping to it); a number fixes it. ``extra(camera, sky)``
-        draws more (not sand) into the scene, depth-tested, before it is exposed; with
+        follows it, the first frame jumping to it); a number fixes it. ``extra(camera, sky,
+        shadows)`` draws more (not sand) into the scene, depth-tested, before it is exposed,
+        lit as the sand is (``shadows``: the frame's ``SceneShadows``); with
         ``depth_out`` the scene's depth goes into the target's depth buffer too. Returns CPU
         milliseconds per stage and the exposure used.
         """
@@ -204,7 +158,7 @@ class SandRenderer:
                 for mesh in (scene.terrain, *scene.objects):
                     self._draw(mesh, camera)
                 if extra is not None:
-                    extra(camera, sky)
+                    extra(camera, sky, SceneShadows(self._shadows, self._shadow_frame))
             times["surface_ms"] = _lap(start) - times["shadows_ms"] - times["sky_ms"]
         if exposure is None:
             # Metered from this frame's scene and adapted over time, as an eye does.
@@ -283,7 +237,7 @@ class SandRenderer:
             return self._shadow_frame  # the frame's other eye: the same maps
         self._shadow_scene = (scene, sky)
         head = scene.head or camera
-        meshes = (scene.terrain, *scene.objects)
+        meshes = scene.shadow_casters
         # Anything in the scene stands at most this far above the lowest ground in view.
         rise = max(mesh.top for mesh in meshes) + self.terrain.height_bound
         clearance = self.terrain.clearance(head.eye)
@@ -317,7 +271,7 @@ class SandRenderer:
             set_uniform(prog, name, value)
         self._shadows.bind(prog, self._shadow_frame)
 
-    def _draw(self, mesh: _Mesh, camera: Camera) -> None:
+    def _draw(self, mesh: SandMesh, camera: Camera) -> None:
         # Vertices are offsets from the mesh origin, and so is the eye in this matrix: small
         # numbers that keep their precision in float32 anywhere in the desert.
         view_projection = camera.projection.astype(np.float64) @ camera.view_relative_to(
@@ -330,53 +284,6 @@ class SandRenderer:
             set_uniform(prog, "u_no_ripples", mesh.no_ripples)
             vao.render(moderngl.TRIANGLES)
 
-    # ---- meshes -----------------------------------------------------------------------------
-
-    def terrain_level_of_detail(self, eye, ground: float | None = None) -> tuple:
-        """(finest ring spacing, centre, outer radius) of the terrain mesh for an eye (``ground``:
-        the height below it, if known): rebuilt only when this changes, as the eye moves by a
-        fraction of the finest spacing or its height above the ground changes by a factor 2."""
-        below = self.terrain.height(eye[0], eye[2]) if ground is None else ground
-        clearance = max(float(eye[1]) - float(below), 1e-6)
-        inner = 2.0 ** math.floor(math.log2(min(max(0.1 * clearance, 1e-6), 0.5)))
-        snap = 2.0 * inner
-        center = (round(eye[0] / snap) * snap, round(eye[2] / snap) * snap)
-        # High above the dunes the horizon lies far away: the desert reaches it.
-        outer = max(self.terrain.extent_m, 2.0 ** math.ceil(math.log2(50.0 * clearance)))
-        return (inner, center, outer)
-
-    def _terrain(self, eye: np.ndarray) -> _Mesh:
-        """Rings centred below the eye, finest where the eye is closest to the ground."""
-        key = self.terrain_level_of_detail(eye)
-        inner, center, outer = key
-        if key != self._terrain_key:
-            origin = np.array([center[0], float(self.terrain.height(*center)), center[1]])
-            mesh = self.terrain.radial_mesh(center, inner, outer, TERRAIN_SEGMENTS, origin=origin)
-            if self._terrain_mesh is not None:
-                self._terrain_mesh.release()
-            self._terrain_mesh = self._mesh(mesh, origin)
-            self._terrain_key = key
-            self.terrain_meshes_built += 1
-        return self._terrain_mesh
-
-    def _sphere(self, camera: Camera) -> _Mesh | None:
-        """The sphere of ``DuneTerrain.sphere_beside_view``, rebuilt only when it moves."""
-        placed = self.terrain.sphere_beside_view(camera.eye, camera.forward)
-        if placed is None:
-            return None
-        center, radius = placed
-        key = tuple(np.round(center / max(radius * 1e-3, 1e-9)).astype(np.int64)) + (radius,)
-        if key != self._sphere_key:
-            mesh = sphere_mesh(center, radius, 32, origin=center)
-            if self._sphere_mesh is not None:
-                self._sphere_mesh.release()
-            self._sphere_mesh = self._mesh(mesh, center)
-            self._sphere_key = key
-        return self._sphere_mesh
-
-    def _mesh(self, mesh: dict, origin) -> _Mesh:
-        return _Mesh(self.ctx, self._surfaces, self._shadows.program, mesh, origin)
-
     # ---- lifetime ---------------------------------------------------------------------------
 
     def _release_readback(self) -> None:
@@ -387,12 +294,7 @@ class SandRenderer:
             self._readback = None
 
     def release(self) -> None:
-        for mesh in (self._terrain_mesh, self._sphere_mesh, *self._fixed_objects):
-            if mesh is not None:
-                mesh.release()
-        self._fixed_objects.clear()
-        self._terrain_mesh = self._sphere_mesh = None
-        self._terrain_key = self._sphere_key = None
+        self.meshes.release()
         self._release_readback()
         self._owned.release()
         self.post.release()

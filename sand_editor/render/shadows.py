@@ -47,6 +47,8 @@ LIGHT_DECIMALS = 4  # the maps' light direction is rounded to this many decimals
 MAX_LIGHT_LAG_DEG = 1.0
 REFRESHED_PER_FRAME = 1
 _LIGHTS = {"sun": 0, "moon": 1}
+# What programs that include shaders/shadows.glsl are compiled with.
+SHADER_DEFINES = {"SHADOW_CASCADES": CASCADES}
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,20 @@ def cascade_splits(near: float, far: float, count: int = CASCADES) -> np.ndarray
     return near * (far / near) ** (np.arange(count + 1) / count)
 
 
+def nearest_depth(head: Camera, boxes) -> float:
+    """The least view depth (metres ahead of ``head``'s eye) of the boxes ((2, 3) world min
+    and max corners) that lie at least partly ahead of it; inf when none does."""
+    forward = np.asarray(head.forward, dtype=np.float64)
+    eye = np.asarray(head.eye, dtype=np.float64)
+    nearest = math.inf
+    for low, high in boxes:
+        corners = np.array([[(low, high)[k >> i & 1][i] for i in range(3)] for k in range(8)])
+        depths = (corners - eye) @ forward
+        if depths.max() > 0.0:
+            nearest = min(nearest, max(float(depths.min()), 0.0))
+    return nearest
+
+
 def cascade_size(frame_size) -> int:
     """The cascades' map size for a frame of ``frame_size`` (width, height) pixels."""
     side = max(int(max(frame_size)), 1)
@@ -134,14 +150,17 @@ def fit_cascades(
     rise: float,
     size: int = CASCADE_SIZES[0],
     count: int = CASCADES,
+    nearest: float = math.inf,
 ) -> tuple[Cascade, ...]:
     """The cascades of a view from ``head`` at ``clearance`` metres above the ground under a
     light in unit direction ``light``; ``rise`` is how far anything in the scene stands above
-    the lowest ground the view can see (it sets how far towards the light casters are taken)."""
+    the lowest ground the view can see (it sets how far towards the light casters are taken),
+    ``nearest`` the least view depth of any object standing on it (a desk the user leans
+    over): the first cascade starts there, so what is closest gets the finest map."""
     light = np.asarray(light, dtype=np.float64)
     near_plane, far_plane = _depth_range(head.projection)
     clearance = max(float(clearance), 0.0)
-    near = max(near_plane, 0.5 * clearance, 1e-4)
+    near = max(near_plane, min(0.5 * clearance, float(nearest)), 1e-4)
     far = min(far_plane, max(SHADOW_DISTANCE_M, 20.0 * clearance))
     near = min(near, 0.5 * far)
     # The four corners of the view at unit depth, in world directions from the eye.
@@ -218,9 +237,10 @@ class SunShadows:
 
     def update(self, meshes, head: Camera, sky, clearance: float, rise: float, frame_size):
         """The ``ShadowFrame`` of a frame drawing ``meshes`` (each with ``origin``,
-        ``serial``, ``depth_vao``, ``indices`` and, for a mesh of rings, ``rings`` and
-        ``ring_center``) in a frame of ``frame_size`` pixels; each cascade's map is drawn again
-        only when what it shows changed. None when no light shines."""
+        ``serial``, ``depth_vao``, ``indices``, ``bounds`` (world (min, max) corners, or None
+        for the ground) and, for a mesh of rings, ``rings`` and ``ring_center``) in a frame of
+        ``frame_size`` pixels; each cascade's map is drawn again only when what it shows
+        changed. None when no light shines."""
         chosen = shadow_light(sky)
         if chosen is None:
             return None
@@ -231,7 +251,9 @@ class SunShadows:
         direction /= np.linalg.norm(direction)
         size = cascade_size(frame_size)
         self._resize(size)
-        fitted = fit_cascades(head, direction, clearance, rise, size)
+        boxes = [mesh.bounds for mesh in meshes if mesh.bounds is not None]
+        nearest = nearest_depth(head, boxes)
+        fitted = fit_cascades(head, direction, clearance, rise, size, nearest=nearest)
         serials = (name, *(mesh.serial for mesh in meshes))
         self._frames += 1
         urgent, waiting = [], []
@@ -312,6 +334,21 @@ class SunShadows:
     def release(self) -> None:
         self._release_maps()
         self._owned.release()
+
+
+@dataclass(frozen=True)
+class SceneShadows:
+    """One frame's shadow maps (``frame`` None: no shadows) as any program drawing into the
+    scene binds them: the sand's, and the props' (``shaders/vr_props.glsl``)."""
+
+    maps: SunShadows
+    frame: ShadowFrame | None
+
+    def bind(self, prog, origin) -> None:
+        """The maps, the light and the lookups of a mesh whose positions are relative to
+        ``origin``, into ``prog`` (which includes shaders/shadows.glsl)."""
+        self.maps.bind(prog, self.frame)
+        self.maps.bind_mesh((prog,), self.frame, origin)
 
 
 def caster_range(mesh, cascade: Cascade) -> tuple[int, int]:

@@ -18,6 +18,7 @@ from sand_editor.gl import (
     set_uniform,
 )
 from sand_editor.render.camera import Camera
+from sand_editor.render.shadows import SHADER_DEFINES as SHADOW_DEFINES
 
 ARC_WIDTH_M = 0.012  # the teleport arc's ribbon, across
 LANDING_RADIUS_M = 0.3
@@ -37,7 +38,7 @@ class BenchGraphics:
         self.ctx = ctx
         self._owned = GLObjects()
         keep = self._owned.keep
-        self._props = keep(program(ctx, "vr_props.glsl"))
+        self._props = keep(program(ctx, "vr_props.glsl", SHADOW_DEFINES))
         self._overlay = keep(program(ctx, "vr_overlay.glsl"))
         self._vignette = keep(fullscreen_program(ctx, "vr_vignette.frag"))
         self._fixed = keep(ctx.buffer(reserve=_MAX_PROP_ROWS * 36))
@@ -74,13 +75,20 @@ class BenchGraphics:
 
     # ---- in the HDR scene ---------------------------------------------------------------------
 
-    def draw_props(self, camera: Camera, sky, moving: np.ndarray | None) -> None:
-        """The desk and ``moving`` props (controllers; world positions) lit by ``sky``, into
-        the bound scene framebuffer (the renderer's depth test is on)."""
+    def draw_props(self, camera: Camera, sky, moving: np.ndarray | None, shadows=None) -> None:
+        """The desk and ``moving`` props (controllers; world positions) lit by ``sky`` and
+        shadowed by ``shadows`` (the renderer's ``SceneShadows``; None: unshadowed), into the
+        bound scene framebuffer (the renderer's depth test is on)."""
         prog = self._props
         for name in ("sun_direction", "sun_radiance", "moon_direction", "moon_radiance",
                      "sky_irradiance"):  # fmt: skip
             set_uniform(prog, f"u_{name}", tuple(float(v) for v in getattr(sky, name)))
+        set_uniform(prog, "u_eye", tuple(float(v) for v in camera.position))
+        set_uniform(prog, "u_origin", tuple(float(v) for v in self.origin))
+        if shadows is None:
+            set_uniform(prog, "u_shadow_cascades", 0)
+        else:
+            shadows.bind(prog, self.origin)
         view_projection = camera.projection.astype(np.float64) @ camera.view_relative_to(
             self.origin
         )

@@ -90,8 +90,8 @@ class Stage:
         bodies = [controller_props(pose) for pose in hands if pose is not None]
         moving = np.vstack(bodies) if bodies else None
 
-        def draw(camera, sky):
-            self.workbench.draw_props(self.ctx, camera, sky, moving)
+        def draw(camera, sky, shadows):
+            self.workbench.draw_props(self.ctx, camera, sky, moving, shadows)
 
         return draw
 
@@ -142,6 +142,8 @@ class Stage:
         self.workbench = Workbench(lambda x, z: float(terrain.height(x, z)), stand_xz, yaw)
         for mesh, origin in self.workbench.sand_objects():
             self.renderer.add_object(mesh, origin)
+        # The desk and the tray's walls cast shadows on the sand, and on themselves.
+        self.renderer.add_caster(self.workbench.layout.props()[:, :3], self.workbench.layout.origin)
 
     def report(self) -> dict:
         head = self.locomotion.origin.point(self.head) if self.head is not None else None

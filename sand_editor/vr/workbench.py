@@ -185,11 +185,12 @@ class Workbench:
             draw.text((left, box[1] + 20 * k), label, font=label_font, fill=(255, 255, 255))
         return image
 
-    def draw_props(self, ctx: moderngl.Context, camera: Camera, sky, moving=None) -> None:
+    def draw_props(self, ctx: moderngl.Context, camera: Camera, sky, moving=None,
+                   shadows=None) -> None:  # fmt: skip
         """The desk, the tray's walls and the ``moving`` props (the controllers' bodies,
         ``bench_meshes.controller_props`` rows, world positions) into the renderer's HDR
-        scene."""
-        self._gl(ctx).draw_props(camera, sky, moving)
+        scene, in the renderer's ``shadows``."""
+        self._gl(ctx).draw_props(camera, sky, moving, shadows)
 
     def draw(self, ctx: moderngl.Context, camera: Camera, viewport, state: ViewState,
              preset_name: str, rays: list, aim=None) -> None:  # fmt: skip
