@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import math
 import signal
 import sys
@@ -19,6 +20,22 @@ VR_TEXTURE_SIZES = (256, 512, 1024, 2048)
 PROGRESS_WIDTH = 30
 MIN_PATCH_M, MAX_PATCH_M = 0.01, 1000.0
 COMMANDS = ("edit", "bake", "export", "render", "vr", "bench")
+# Each benchmark: the module of sand_editor.bench whose main() runs it, and the options it takes
+# besides --quick and --json.
+BENCHMARKS = {
+    "generator": ("generator", {"sizes", "plot"}),
+    "render": ("render", {"plot"}),
+    "appearance": ("sweep", {"plot"}),
+    "depth": ("depth", {"plot"}),
+    "relief": ("relief_reference", {"plot"}),
+    "repetition": ("repetition", set()),
+    "band": ("band", set()),
+    "editor": ("editor", set()),
+    "vr-link": ("vr_link", set()),
+    "vr-runtime": ("vr_runtime", set()),
+    "gpu": ("gpu", {"sizes"}),
+    "export": ("export", set()),
+}
 
 
 class CommandError(Exception):
@@ -226,72 +243,20 @@ def _cmd_bench(args) -> int:
 
 
 def _run_bench(args) -> int:
-    if args.what == "generator":
-        from sand_editor.bench.generator import main as bench_generator
-
-        return bench_generator(
-            quick=args.quick, sizes=args.sizes, json_path=args.json, plot_path=args.plot
-        )
-    if args.what == "render":
-        if args.sizes:
-            raise CommandError("--sizes applies to the generator benchmark only")
-        from sand_editor.bench.render import main as bench_render
-
-        return bench_render(quick=args.quick, json_path=args.json, plot_path=args.plot)
-    if args.what in ("appearance", "depth", "relief", "repetition", "band"):
-        if args.sizes:
-            raise CommandError("--sizes applies to the generator benchmark only")
-        if args.what in ("repetition", "band"):
-            if args.plot:
-                raise CommandError(f"--plot does not apply to the {args.what} benchmark")
-            if args.what == "band":
-                from sand_editor.bench.band import main as bench_band
-
-                return bench_band(quick=args.quick, json_path=args.json)
-            from sand_editor.bench.repetition import main as bench_repetition
-
-            return bench_repetition(quick=args.quick, json_path=args.json)
-        if args.what == "depth":
-            from sand_editor.bench.depth import main as bench_depth
-
-            return bench_depth(quick=args.quick, json_path=args.json, plot_path=args.plot)
-        if args.what == "relief":
-            from sand_editor.bench.relief_reference import main as bench_relief
-
-            return bench_relief(quick=args.quick, json_path=args.json, plot_path=args.plot)
-        from sand_editor.bench.sweep import main as bench_appearance
-
-        return bench_appearance(quick=args.quick, json_path=args.json, plot_path=args.plot)
-    if args.what == "editor":
-        if args.sizes or args.plot:
-            raise CommandError("--sizes and --plot do not apply to the editor benchmark")
-        # Lives with the editor: only the app package may import Qt.
-        from sand_editor.bench.editor import main as bench_editor
-
-        return bench_editor(quick=args.quick, json_path=args.json)
-    if args.what in ("vr-link", "vr-runtime"):
-        if args.sizes or args.plot:
-            raise CommandError(f"--sizes and --plot do not apply to the {args.what} benchmark")
-        if args.what == "vr-link":
-            from sand_editor.bench.vr_link import main as bench_vr_link
-
-            return bench_vr_link(quick=args.quick, json_path=args.json)
-        from sand_editor.bench.vr_runtime import main as bench_vr_runtime
-
-        return bench_vr_runtime(quick=args.quick, json_path=args.json)
-    if args.what == "export":
-        if args.sizes or args.plot:
-            raise CommandError("--sizes and --plot do not apply to the export benchmark")
-        from sand_editor.bench.export import main as bench_export
-
-        return bench_export(quick=args.quick, json_path=args.json)
-    if args.what == "gpu":
-        if args.plot:
-            raise CommandError("--plot does not apply to the gpu benchmark")
-        from sand_editor.bench.gpu import main as bench_gpu
-
-        return bench_gpu(quick=args.quick, sizes=args.sizes, json_path=args.json)
-    raise CommandError(f"unknown benchmark {args.what!r}")
+    module_name, options = BENCHMARKS[args.what]
+    refused = [
+        f"--{name}" for name in ("sizes", "plot") if getattr(args, name) and name not in options
+    ]
+    if refused:
+        verb = "does" if len(refused) == 1 else "do"
+        raise CommandError(f"{' and '.join(refused)} {verb} not apply to the {args.what} benchmark")
+    module = importlib.import_module(f"sand_editor.bench.{module_name}")
+    chosen = {"quick": args.quick, "json_path": args.json}
+    if "sizes" in options:
+        chosen["sizes"] = args.sizes
+    if "plot" in options:
+        chosen["plot_path"] = args.plot
+    return module.main(**chosen)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -415,20 +380,7 @@ def _parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="measure speed against error")
     bench.add_argument(
         "what",
-        choices=[
-            "generator",
-            "render",
-            "appearance",
-            "depth",
-            "relief",
-            "repetition",
-            "band",
-            "editor",
-            "vr-link",
-            "vr-runtime",
-            "gpu",
-            "export",
-        ],
+        choices=list(BENCHMARKS),
         help="what to measure",
     )
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")

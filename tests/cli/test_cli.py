@@ -62,3 +62,38 @@ def test_a_time_in_other_scripts_digits_is_one_error_line(command, tmp_path, cap
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"sand-editor {command}: error: time of day")
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "refused"),
+    [
+        (["band", "--plot", "p.png"], "--plot does not apply to the band benchmark"),
+        (["depth", "--sizes", "64"], "--sizes does not apply to the depth benchmark"),
+        (
+            ["export", "--sizes", "64", "--plot", "p.png"],
+            "--sizes and --plot do not apply to the export benchmark",
+        ),  # fmt: skip
+        (["gpu", "--plot", "p.png"], "--plot does not apply to the gpu benchmark"),
+    ],
+)
+def test_a_benchmark_refuses_the_options_it_does_not_take_before_it_runs(
+    argv, refused, tmp_path, capsys, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)
+    assert main(["bench", *argv]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and refused in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_every_benchmark_names_a_module_with_a_main_taking_its_options():
+    import importlib
+    import inspect
+
+    from sand_editor.cli import BENCHMARKS
+
+    for name, (module_name, options) in BENCHMARKS.items():
+        module = importlib.import_module(f"sand_editor.bench.{module_name}")
+        taken = set(inspect.signature(module.main).parameters)
+        wanted = {"quick", "json_path"} | {"plot_path" if o == "plot" else o for o in options}
+        assert wanted <= taken, (name, wanted - taken)
