@@ -13,6 +13,7 @@ from functools import cache
 import moderngl
 import numpy as np
 
+from sand_editor.colour import SHADER_DEFINES as COLOUR_DEFINES
 from sand_editor.resources import bench_shaders_dir, shader_source, shaders_dir
 
 REQUIRED_GL_VERSION = 330
@@ -198,7 +199,8 @@ _NVIDIA_LINE = re.compile(r"\b\d+\((\d+)\)")
 
 def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
     """GLSL source of a file in ``shaders/`` with its ``#include "…"`` lines resolved and
-    ``defines`` inserted after its ``#version`` line.
+    ``defines`` (after the colour facts every program gets) inserted after its ``#version``
+    line.
 
     Each file is included once per program (later includes of it are dropped), so shared
     libraries can include what they use. ``#include "file" if NAME`` includes the file only
@@ -209,6 +211,8 @@ def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
 
 
 def _expand(name: str, defines: Mapping[str, object] | None) -> tuple[str, tuple[str, ...]]:
+    # Facts every program shares (colour.py's luminance weights and sRGB curve) come first.
+    defines = {**COLOUR_DEFINES, **(defines or {})}
     seen: set[str] = set()
     files: list[str] = []
     defined = set(defines or ())

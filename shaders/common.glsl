@@ -20,8 +20,9 @@ uint hash_cell(ivec2 cell, uint key) {
     return lowbias32(uint(cell.x) ^ lowbias32(uint(cell.y) ^ lowbias32(key)));
 }
 
+// The sRGB curve, its constants #defined from sand_editor/colour.py for every program.
 vec3 srgb_encode(vec3 linear) {
-    vec3 low = linear * 12.92;
-    vec3 high = 1.055 * pow(linear, vec3(1.0 / 2.4)) - 0.055;
-    return mix(high, low, lessThanEqual(linear, vec3(0.0031308)));
+    vec3 low = linear * SRGB_SLOPE;
+    vec3 high = (1.0 + SRGB_OFFSET) * pow(linear, vec3(1.0 / SRGB_POWER)) - SRGB_OFFSET;
+    return mix(high, low, lessThanEqual(linear, vec3(SRGB_LINEAR_KNEE)));
 }

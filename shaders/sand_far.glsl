@@ -2,13 +2,13 @@
 // Lambertian-sphere BRDF (included by sand_surface.glsl after its uniforms and helpers).
 
 const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
-const float MIN_FACING = 0.05;       // least n·v of a shading normal
 
 // d'Eon (2021), the fitted form of the BRDF of a half space of Lambertian spheres, per unit
 // albedo at the tile's average albedo kd̄, every channel at once. What depends on kd̄ alone — c,
-// the particles' single-scattering albedo mapped from it, and the multiple-scattering floor
-// (1.94208·kd̄)^1.85432 — is computed once per material (SandMaterial.bind) rather than per
-// pixel, normal and light.
+// the particles' single-scattering albedo mapped from it, and the multiple-scattering floor —
+// is computed once per material (SandMaterial.bind) rather than per pixel, normal and light.
+// The fit's coefficients (DEON_*) are #defined from sand_editor/render/far_brdf.py, which
+// computes the same BRDF in numpy.
 uniform vec3 u_sphere_c;
 uniform vec3 u_sphere_floor;
 uniform vec3 u_sphere_inverse_albedo;  // 1 / kd̄
@@ -25,9 +25,9 @@ vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v) {
     float cos_phi = s > 1e-5 ? clamp((cos_io - ui * uo) / s, -1.0, 1.0) : 1.0;
     float s_safe = max(s, 1e-5);
     float spread = (acos(cos_phi) + sqrt(ui * uo))
-                 / (4.50996 * (acos(min(s_safe, 1.0)) / s_safe + 0.113706));
-    vec3 multiple = spread * (u_sphere_c - 0.249978) + u_sphere_floor;
-    vec3 brdf = max(0.995917 * u_sphere_c * single + 0.0684744 * multiple, 0.0);
+                 / (DEON_SPREAD_SCALE * (acos(min(s_safe, 1.0)) / s_safe + DEON_SPREAD_OFFSET));
+    vec3 multiple = spread * (u_sphere_c - DEON_C_OFFSET) + u_sphere_floor;
+    vec3 brdf = max(DEON_SINGLE * u_sphere_c * single + DEON_MULTIPLE * multiple, 0.0);
     return brdf * u_sphere_inverse_albedo;
 }
 

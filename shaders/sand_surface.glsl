@@ -133,14 +133,13 @@ vec3 sand_sky(vec3 kd, vec3 n, vec3 sky) {
 // Light passing through thin grain edges towards a viewer who looks into the light, absorbed
 // along its way through them.
 vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
-    float exponent = mix(16.0, 1.0, clamp(u_transmission_roughness, 0.0, 1.0));
+    float exponent = mix(TRANSMISSION_SHARPEST, 1.0, clamp(u_transmission_roughness, 0.0, 1.0));
     float forward = pow(max(dot(-v, l), 0.0), exponent);
     return u_transmission * subsurface_transmittance() * albedo * irradiance * forward / PI;
 }
 
-const float DIFFUSE_CENTRE = 0.2;
-const float DIFFUSE_RING = 1.58113883;  // √(2 / (1 − centre)): the variance held
-const float FACING_BAND = 0.15;
+// DIFFUSE_CENTRE, DIFFUSE_RING, MAX_SLOPE2, FACING_BAND, MIN_FACING and TRANSMISSION_SHARPEST
+// are #defined from sand_editor/render/far_brdf.py, whose numpy model of this light they are.
 
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
 // their squares), as the grains themselves give it when each is resolved: at the mean normal
@@ -166,7 +165,7 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
     for (int i = 0; i < 5; ++i) {
         vec2 p = points[i];
         float len2 = dot(p, p);
-        if (len2 > 0.998) p *= sqrt(0.998 / len2);
+        if (len2 > MAX_SLOPE2) p *= sqrt(MAX_SLOPE2 / len2);
         vec3 n = to_world(vec3(p, sqrt(max(1.0 - dot(p, p), 0.0))), s);
         // A grain side facing away from the eye sends it nothing; one turning away fades out
         // over a band of n·v rather than stopping along a line across the frame (d'Eon's BRDF

@@ -20,20 +20,49 @@ from sand_editor.preset import Preset
 # Quadrature of the double integral over the light's and the eye's hemispheres.
 _LIGHT_STEPS = 8
 _EYE_STEPS = 8
-# shaders/sand_surface.glsl and sand_far.glsl: a grain side seen edge-on fades out over this
-# band of n·v, and a shading normal is bent towards the eye to at least this n·v.
+# A grain side seen edge-on fades out over this band of n·v, and a shading normal is bent
+# towards the eye to at least this n·v.
 FACING_BAND = 0.15
 MIN_FACING = 0.05
-# filtered_diffuse_light's five normals: the centre's weight, and how far the others stand out.
+# filtered_diffuse_light's five normals: the centre's weight, and how far the others stand out
+# (the variance the five hold is the footprint's).
 DIFFUSE_CENTRE = 0.2
 DIFFUSE_RING = math.sqrt(2.0 / (1.0 - DIFFUSE_CENTRE))
+# The five normals' slopes reach at most this squared length (a normal 3° above its horizon).
+MAX_SLOPE2 = 0.998
+# Light through grain edges: a lobe around the light's way on, this sharp at no roughness.
+TRANSMISSION_SHARPEST = 16.0
+# d'Eon's (2021) fitted coefficients: the albedo mapping (Python alone: per material) ...
+_C_POWER, _C_DENOMINATOR, _C_DENOMINATOR_POWER = 2.73556, 0.184096, 2.48423
+_FLOOR_SCALE, _FLOOR_POWER = 1.94208, 1.85432
+# ... and the BRDF's own, which the shaders take from here.
+SPREAD_SCALE, SPREAD_OFFSET = 4.50996, 0.113706
+C_OFFSET = 0.249978
+SINGLE_WEIGHT, MULTIPLE_WEIGHT = 0.995917, 0.0684744
+# What shaders/sand_surface.glsl and sand_far.glsl are compiled with: these facts live here.
+SHADER_DEFINES = {
+    name: repr(float(value))
+    for name, value in {
+        "FACING_BAND": FACING_BAND,
+        "MIN_FACING": MIN_FACING,
+        "DIFFUSE_CENTRE": DIFFUSE_CENTRE,
+        "DIFFUSE_RING": DIFFUSE_RING,
+        "MAX_SLOPE2": MAX_SLOPE2,
+        "TRANSMISSION_SHARPEST": TRANSMISSION_SHARPEST,
+        "DEON_SPREAD_SCALE": SPREAD_SCALE,
+        "DEON_SPREAD_OFFSET": SPREAD_OFFSET,
+        "DEON_C_OFFSET": C_OFFSET,
+        "DEON_SINGLE": SINGLE_WEIGHT,
+        "DEON_MULTIPLE": MULTIPLE_WEIGHT,
+    }.items()
+}
 
 
 def sphere_albedo_terms(kd):
     """What d'Eon's (2021) Lambertian-sphere BRDF takes of a diffuse albedo alone: the
     particles' single-scattering albedo c and the multiple-scattering floor."""
-    c = (1.0 - (1.0 - kd) ** 2.73556) / (1.0 - 0.184096 * (1.0 - kd) ** 2.48423)
-    return c, (1.94208 * kd) ** 1.85432
+    c = (1.0 - (1.0 - kd) ** _C_POWER) / (1.0 - _C_DENOMINATOR * (1.0 - kd) ** _C_DENOMINATOR_POWER)
+    return c, (_FLOOR_SCALE * kd) ** _FLOOR_POWER
 
 
 def sphere_brdf(kd, ui, uo, cos_io):
@@ -48,10 +77,10 @@ def sphere_brdf(kd, ui, uo, cos_io):
     s_safe = np.maximum(s, 1e-5)
     cos_phi = np.where(s > 1e-5, np.clip((cos_io - ui * uo) / s_safe, -1.0, 1.0), 1.0)
     spread = (np.arccos(cos_phi) + np.sqrt(np.maximum(ui * uo, 0.0))) / (
-        4.50996 * (np.arccos(np.minimum(s_safe, 1.0)) / s_safe + 0.113706)
+        SPREAD_SCALE * (np.arccos(np.minimum(s_safe, 1.0)) / s_safe + SPREAD_OFFSET)
     )
-    multiple = spread * (c - 0.249978) + floor
-    brdf = np.maximum(0.995917 * single + 0.0684744 * multiple, 0.0)
+    multiple = spread * (c - C_OFFSET) + floor
+    brdf = np.maximum(SINGLE_WEIGHT * single + MULTIPLE_WEIGHT * multiple, 0.0)
     return np.where((ui > 0.0) & (uo > 0.0), brdf, 0.0)
 
 
@@ -82,7 +111,8 @@ def moment_normals(moments, eye) -> tuple[np.ndarray, np.ndarray]:
         [m, m + spread_along, m - spread_along, m + spread_across, m - spread_across], axis=-2
     )
     length2 = np.sum(points * points, axis=-1, keepdims=True)
-    points = np.where(length2 > 0.998, points * np.sqrt(0.998 / np.maximum(length2, 1e-12)), points)
+    limited = points * np.sqrt(MAX_SLOPE2 / np.maximum(length2, 1e-12))
+    points = np.where(length2 > MAX_SLOPE2, limited, points)
     z = np.sqrt(np.maximum(1.0 - np.sum(points * points, axis=-1, keepdims=True), 0.0))
     weights = np.array([DIFFUSE_CENTRE] + [0.25 * (1.0 - DIFFUSE_CENTRE)] * 4)
     return np.concatenate([points, z], axis=-1), weights
@@ -114,7 +144,9 @@ def far_radiance_per_irradiance(preset: Preset, kd, moments, light, eye) -> np.n
     )
     direct = (1.0 - fs) * per_albedo * np.maximum(ui, 0.0)[..., None] + fs * fe / np.pi
     diffuse = np.sum((weights * seen)[..., None] * direct, axis=-2) * lit
-    exponent = 16.0 + (1.0 - 16.0) * np.clip(shading.transmission_roughness, 0.0, 1.0)
+    exponent = TRANSMISSION_SHARPEST + (1.0 - TRANSMISSION_SHARPEST) * np.clip(
+        shading.transmission_roughness, 0.0, 1.0
+    )
     forward = np.maximum(-cos_io, 0.0) ** exponent
     through = shading.transmission * forward[..., None] / np.pi * lit
     # Absorption dims only the light that passes through grains (sand_surface.glsl).

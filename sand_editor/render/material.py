@@ -39,6 +39,7 @@ from sand_editor.render.facet_lobe import (
     lobe_correction,
     lobe_row,
 )
+from sand_editor.render.far_brdf import SHADER_DEFINES as FAR_DEFINES
 from sand_editor.render.far_brdf import sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
 from sand_editor.render.shadows import SHADER_DEFINES as SHADOW_DEFINES
@@ -73,6 +74,7 @@ SHADER_DEFINES = {
     "LAYER_COLOURS": MAX_LAYERS * 4,
     "MAX_LAYERS": MAX_LAYERS,
     **SHADOW_DEFINES,
+    **FAR_DEFINES,
     "LOBE_TILTS": LOBE_TILTS_DEG.size,
     "LOBE_TILT_MAX": repr(float(np.radians(LOBE_TILT_MAX_DEG))),
     "RELIEF_TABLE": "ivec3({}, {}, {})".format(*RELIEF_TABLE),

@@ -12,7 +12,6 @@ from collections.abc import Callable
 import moderngl
 import numpy as np
 
-from sand_editor.colour import SHADER_DEFINES as COLOUR_DEFINES
 from sand_editor.gl import (
     GLObjects,
     draw_fullscreen,
@@ -41,17 +40,11 @@ class PostChain:
         # What lives as long as the chain; the size-dependent targets are made by resize().
         self._owned = GLObjects()
         keep = self._owned.keep
-        self._downsample = keep(
-            fullscreen_program(ctx, "post.glsl", {"BLOOM_DOWNSAMPLE": 1, **COLOUR_DEFINES})
-        )
-        self._upsample = keep(
-            fullscreen_program(ctx, "post.glsl", {"BLOOM_UPSAMPLE": 1, **COLOUR_DEFINES})
-        )
-        self._resolve = keep(fullscreen_program(ctx, "post.glsl", {"RESOLVE": 1, **COLOUR_DEFINES}))
-        self._meter = keep(fullscreen_program(ctx, "post.glsl", {"METER": 1, **COLOUR_DEFINES}))
-        self._depth_copy = keep(
-            fullscreen_program(ctx, "post.glsl", {"DEPTH_COPY": 1, **COLOUR_DEFINES})
-        )
+        self._downsample = keep(fullscreen_program(ctx, "post.glsl", {"BLOOM_DOWNSAMPLE": 1}))
+        self._upsample = keep(fullscreen_program(ctx, "post.glsl", {"BLOOM_UPSAMPLE": 1}))
+        self._resolve = keep(fullscreen_program(ctx, "post.glsl", {"RESOLVE": 1}))
+        self._meter = keep(fullscreen_program(ctx, "post.glsl", {"METER": 1}))
+        self._depth_copy = keep(fullscreen_program(ctx, "post.glsl", {"DEPTH_COPY": 1}))
         self._meter_texture = keep(ctx.texture((METER_SIZE, METER_SIZE), 1, dtype="f4"))
         self._meter_texture.build_mipmaps()
         self._meter_fbo = keep(ctx.framebuffer([self._meter_texture]))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sand_editor.colour import SHADER_DEFINES as COLOUR_DEFINES
 from sand_editor.gl import (
     draw_fullscreen,
     drawing_into,
@@ -45,7 +46,9 @@ void main() {
 
 
 def _counts(ctx, patch_texels: float, mean_area: float = LAMBDA) -> np.ndarray:
-    defines = (
+    # Hand-assembled, so it adds the facts sand_editor/gl.py gives every program itself.
+    shared = "".join(f"#define {key} {value}\n" for key, value in COLOUR_DEFINES.items())
+    defines = shared + (
         f"#define CELLS {CELLS}\n#define TEXTURE_SIZE {TEXTURE_SIZE}\n"
         f"#define LAMBDA {mean_area!r}\n"
         f"#define FACET_SIZE_RANGE {FACET_SIZE_RANGE!r}\n"

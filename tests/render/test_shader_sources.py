@@ -1,6 +1,7 @@
 """What the product's programs are made of: the benchmark's probe code is in the probe's
 program and nowhere else; every line keeps its file's own line number, so that a compile error
-names the file and line it is in."""
+names the file and line it is in; each fact Python and GLSL share is written once, in Python,
+and reaches the shaders as a #define."""
 
 from __future__ import annotations
 
@@ -9,6 +10,8 @@ import re
 import moderngl
 import pytest
 
+from sand_editor import colour
+from sand_editor.generator import noise
 from sand_editor.gl import (
     UniformError,
     fullscreen_program,
@@ -18,8 +21,61 @@ from sand_editor.gl import (
     source_line,
 )
 from sand_editor.preset import FIELDS
+from sand_editor.render import far_brdf, material, shadows
 from sand_editor.render.modes import mode_defines
-from sand_editor.resources import shader_source
+from sand_editor.resources import bench_shaders_dir, shader_source, shaders_dir
+
+# Every table of facts Python hands the shaders.
+FACT_TABLES = {
+    "colour": colour.SHADER_DEFINES,
+    "far_brdf": far_brdf.SHADER_DEFINES,
+    "material": material.SHADER_DEFINES,
+    "noise": noise.SHADER_DEFINES,
+    "shadows": shadows.SHADER_DEFINES,
+    "modes": mode_defines(),
+}
+SHADER_FILES = sorted([*shaders_dir().glob("*.*"), *bench_shaders_dir().glob("*.*")])
+
+
+def _code(path) -> str:
+    """A shader file without its comments."""
+    text = path.read_text(encoding="utf-8")
+    return re.sub(r"/\*.*?\*/", "", re.sub(r"//[^\n]*", "", text), flags=re.S)
+
+
+def _copies(code: str, value) -> bool:
+    """Whether ``code`` writes ``value`` as a number of five or more significant digits."""
+    digits = re.sub(r"[^0-9]", "", str(value)).strip("0")
+    literal = re.compile(rf"(?<![\w.]){re.escape(str(value))}(?![\w])")
+    return len(digits) >= 5 and literal.search(code) is not None
+
+
+@pytest.mark.parametrize("table", FACT_TABLES)
+def test_no_shader_writes_again_a_fact_python_defines(table):
+    for name, value in FACT_TABLES[table].items():
+        declared = re.compile(rf"(\bconst\s+\w+\s+{name}\b|#\s*define\s+{name}\b)")
+        for path in SHADER_FILES:
+            code = _code(path)
+            assert not declared.search(code), f"{path.name} declares {name} of {table}"
+            assert not _copies(code, value), f"{path.name} copies {name} = {value}"
+
+
+@pytest.mark.parametrize("table", FACT_TABLES)
+def test_every_fact_python_defines_is_read_by_a_shader(table):
+    codes = [_code(path) for path in SHADER_FILES]
+    for name in FACT_TABLES[table]:
+        if name.startswith("MODE_"):
+            continue  # the modes are all #defined; a shader reads those it has a branch for
+        assert any(re.search(rf"\b{name}\b", code) for code in codes), f"{name} is read nowhere"
+
+
+def test_a_number_copied_into_a_shader_is_caught(tmp_path):
+    copied = tmp_path / "copy.glsl"
+    copied.write_text("float f(float x) { return x * 4.50996; } // DEON_SPREAD_SCALE\n")
+    assert _copies(_code(copied), far_brdf.SHADER_DEFINES["DEON_SPREAD_SCALE"])
+    assert not _copies(_code(copied), far_brdf.SHADER_DEFINES["FACING_BAND"])  # 0.15: too short
+    assert "DEON_SPREAD_SCALE" not in _code(copied)  # the comment is not code
+
 
 # Definitions of the probe's own uniforms and functions (the product calls none of them).
 PROBE_ONLY = (
