@@ -12,6 +12,11 @@ each row gives the frame with all of them, and without one. Every timed frame's 
 by a minute, as in a time-lapse, so that each frame draws one of the four shadow maps again (a
 still view draws none, a first frame all four).
 Up close the sparkles are stochastic per pixel by design: their FLIP is reported, not a target.
+
+The flicker figure: the camera moves sideways by a quarter of a pixel (at the view's distance)
+per frame, PAN_FRAMES frames; the mean change of a ground pixel between frames, over the same
+change of the supersampled frames (the truth moves by a quarter pixel too, and changes as much
+as its content does). Above 1 the frame shimmers more than what it shows.
 """
 
 from __future__ import annotations
@@ -34,6 +39,8 @@ FEATURE_LABELS = {"relief": "no relief", "sharp_ripples": "isotropic ripples",
                   "shadows": "no shadows"}  # fmt: skip
 CLOCK_STEP_H = 1.0 / 60.0
 REPEATS = 7  # timed frames per setting, the median kept
+PAN_STEP_PX = 0.25  # the flicker figure's camera step per frame, in pixels at the view's distance
+PAN_FRAMES = 5
 
 
 def supersampled(image: np.ndarray, factor: int) -> np.ndarray:
@@ -78,24 +85,64 @@ class Views:
         self.exposure = light_exposure(sky_at(TIME))
 
     def frame(
-        self, distance: float, size: tuple[int, int], later_h: float = 0.0, **features
+        self,
+        distance: float,
+        size: tuple[int, int],
+        later_h: float = 0.0,
+        pan_px: float = 0.0,
+        **features,
     ) -> tuple[np.ndarray, float]:
         """The view at ``distance`` drawn at ``size``, ``later_h`` hours after the bench's time,
+        its camera moved sideways by ``pan_px`` of its pixels at that distance,
         and the milliseconds it took."""
-        from sand_editor.render.camera import camera_at_distance
-
         for name in FEATURES:
             setattr(self.renderer, name, features.get(name, True))
         width, height = size
-        terrain = self.renderer.terrain
-        camera = camera_at_distance(
-            distance, PITCH_DEG, width / height, lambda x, z: float(terrain.height(x, z))
-        )
+        camera = self.camera(distance, pan_px, size)
         sky = self.sky_at(TIME + later_h)
         start = time.perf_counter()
         image = self.renderer.render_to_array(width, height, camera, sky, "full",
                                               exposure=self.exposure)  # fmt: skip
         return image, (time.perf_counter() - start) * 1e3
+
+    def camera(self, distance: float, pan_px: float = 0.0, size=SIZE):
+        """The bench's camera at ``distance``, moved right by ``pan_px`` pixels of a frame of
+        ``size``'s width."""
+        from sand_editor.render.camera import Camera, camera_at_distance, look_at_matrix
+
+        terrain = self.renderer.terrain
+        aspect = size[0] / size[1]
+        camera = camera_at_distance(
+            distance, PITCH_DEG, aspect, lambda x, z: float(terrain.height(x, z))
+        )
+        if pan_px == 0.0:
+            return camera
+        # A pixel spans 2 d tan(fov_x / 2) / width at the distance d the view looks to.
+        half_width = distance / float(camera.projection[0, 0])
+        step = pan_px * 2.0 * half_width / size[0]
+        forward = camera.forward.astype(np.float64)
+        right = np.cross(forward, (0.0, 1.0, 0.0))
+        right /= np.linalg.norm(right)
+        eye = camera.eye + step * right
+        view = look_at_matrix(eye, eye + distance * forward)
+        return Camera(view, camera.projection, eye)
+
+    def flicker(self, distance: float, size=SIZE, supersample: int = SUPERSAMPLE) -> dict:
+        """Mean change of a ground pixel between frames of a quarter-pixel pan, for frames of
+        ``size`` and the same frames supersampled, and their ratio."""
+        large = (size[0] * supersample, size[1] * supersample)
+        ours, truth = [], []
+        for k in range(PAN_FRAMES):
+            pan = k * PAN_STEP_PX
+            ours.append(self.frame(distance, size, pan_px=pan)[0] / 255.0)
+            # The large frame's pixels are a supersample-th of ours: the same motion is more.
+            big = self.frame(distance, large, pan_px=pan * supersample)[0]
+            truth.append(supersampled(big, supersample))
+        half = size[1] // 2
+        change = [
+            float(np.abs(np.diff(np.stack(f)[:, half:], axis=0)).mean()) for f in (ours, truth)
+        ]
+        return {"ours": change[0], "truth": change[1], "ratio": change[0] / max(change[1], 1e-9)}
 
     def timed(self, distance: float, **features) -> tuple[np.ndarray, float]:
         """The view at the bench's time, and the median milliseconds of frames whose clock moves
@@ -124,6 +171,7 @@ def run(quick: bool = False) -> dict:
             for label, features in [("all", {}), *((f"no_{f}", {f: False}) for f in FEATURES)]:
                 image, ms = views.timed(distance, **features)
                 row[label] = {"flip": flip_error(truth, image / 255.0), "ms": ms}
+            row["flicker"] = views.flicker(distance)
             rows.append(row)
             print(f"  depth at {distance} m", file=sys.stderr, flush=True)
     finally:
@@ -134,21 +182,23 @@ def run(quick: bool = False) -> dict:
 def format_table(results: dict) -> str:
     lines = [
         f"Depth: FLIP over the ground against the same renderer 8×8 supersampled, "
-        f"{results['size'][0]}×{results['size'][1]}, 16:30, pitch 15; "
+        f"{results['size'][0]}×{results['size'][1]}, 16:30, pitch 15; flicker: the mean "
+        f"change between frames of a {PAN_STEP_PX}-pixel pan over the supersampled pan's; "
         f"{results['machine']['gl_renderer']}, {results['machine']['cpu_count']} CPUs",
         "",
         "| distance | FLIP | "
         + " | ".join(f"FLIP, {FEATURE_LABELS[f]}" for f in FEATURES)
-        + " | ms | "
+        + " | flicker ×truth | ms | "
         + " | ".join(f"ms, {FEATURE_LABELS[f]}" for f in FEATURES)
         + " |",
-        "|" + " ---: |" * (3 + 2 * len(FEATURES)),
+        "|" + " ---: |" * (4 + 2 * len(FEATURES)),
     ]
     for row in results["rows"]:
         cells = [row["all"], *(row[f"no_{f}"] for f in FEATURES)]
         flips = " | ".join(f"{c['flip']:.3f}" for c in cells)
         costs = " | ".join(f"{c['ms']:.0f}" for c in cells)
-        lines.append(f"| {row['distance_m']:g} m | {flips} | {costs} |")
+        flicker = f"{row['flicker']['ratio']:.2f}" if "flicker" in row else ""
+        lines.append(f"| {row['distance_m']:g} m | {flips} | {flicker} | {costs} |")
     return "\n".join(lines)
 
 

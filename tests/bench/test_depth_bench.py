@@ -49,3 +49,8 @@ def test_depth_bench_writes_its_table_and_each_features_effect(tmp_path):
     assert rows[0.05]["no_relief"]["flip"] > 1.5 * rows[0.05]["all"]["flip"]
     # ... and ripples filtered along the footprint keep the truth's contrast better.
     assert rows[10.0]["all"]["flip"] < rows[10.0]["no_sharp_ripples"]["flip"]
+    # A quarter-pixel pan changes our frames at most 1.5 times as much as it changes the truth.
+    for row in rows.values():
+        flicker = row["flicker"]
+        assert flicker["truth"] > 0.0, "the pan moved the truth"
+        assert 0.0 < flicker["ours"] and flicker["ratio"] <= 1.5, flicker
