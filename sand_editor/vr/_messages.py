@@ -75,7 +75,7 @@ def handle_message(loop, message: dict) -> None:
         if not isinstance(button, str) or button not in BUTTONS:
             shown = repr(button) if isinstance(button, str) else type(button).__name__
             raise LinkError(f"unknown button {shown}; allowed: {', '.join(BUTTONS)}")
-        loop.run_command(BUTTONS[button][5])
+        loop.run_command(BUTTONS[button].command)
     elif kind == "quit":
         loop.backend.request_exit()
     else:

@@ -107,7 +107,7 @@ def loop_report(loop) -> dict:
             "mode": loop.view.state.mode,
             "preset": loop.presets[loop._index()][0],
         },
-        "locomotion": loop.stage.report(),
+        "locomotion": {**loop.stage.report(), "comfort_vignette": loop.controls.comfort},
         "resources": loop.resources,
         "states": stats.states,
         "errors": [*stats.errors, *rejected],

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 
 from sand_editor.view import MAX_DAY_SPEED, ViewState, wrap_hours
 from sand_editor.vr.xrmath import Pose
@@ -22,15 +23,44 @@ COMPARISON_MODE = "lambert"
 
 HANDS = ("left", "right")
 
+
+class CommandKind(StrEnum):
+    """What a command does (see ``Command``)."""
+
+    SCRUB = "scrub"
+    SPEED = "speed"
+    SPEED_STEP = "speed_step"
+    PLAY_PAUSE = "play_pause"
+    NEXT_PRESET = "next_preset"
+    TOGGLE_LAMBERT = "toggle_lambert"
+    TOGGLE_COMFORT = "toggle_comfort"
+    BRING_BENCH = "bring_bench"
+    PRESS = "press"
+
+
+class Button(StrEnum):
+    """A controller's buttons: each is an OpenXR boolean action of its name, a ``HandInput``
+    field, and on its press the command of the same name."""
+
+    PLAY_PAUSE = "play_pause"
+    NEXT_PRESET = "next_preset"
+    TOGGLE_LAMBERT = "toggle_lambert"
+    BRING_BENCH = "bring_bench"
+
+    @property
+    def command(self) -> CommandKind:
+        return CommandKind(self.value)
+
+
 # OpenXR actions: name → (type, localized name). Types: "boolean", "float", "vector2f", "pose".
 ACTIONS = {
     "scrub": ("vector2f", "Scrub time and day speed"),
     "locomote": ("vector2f", "Teleport and turn"),
     "select": ("float", "Press a panel button"),
-    "play_pause": ("boolean", "Play or pause the day"),
-    "next_preset": ("boolean", "Next sand"),
-    "toggle_lambert": ("boolean", "Compare with Lambert"),
-    "bring_bench": ("boolean", "Bring the workbench"),
+    Button.PLAY_PAUSE: ("boolean", "Play or pause the day"),
+    Button.NEXT_PRESET: ("boolean", "Next sand"),
+    Button.TOGGLE_LAMBERT: ("boolean", "Compare with Lambert"),
+    Button.BRING_BENCH: ("boolean", "Bring the workbench"),
     "aim": ("pose", "Aim"),
 }
 
@@ -90,7 +120,8 @@ def binding_paths(profile: str) -> list[tuple[str, str]]:
 
 @dataclass(frozen=True)
 class HandInput:
-    """One hand's controls at one moment; ``aim`` is None while not tracked."""
+    """One hand's controls at one moment; ``aim`` is None while not tracked; a field per
+    ``Button``."""
 
     stick: tuple[float, float] = (0.0, 0.0)  # the left's scrubs the time, the right's locomotes
     select: float = 0.0
@@ -110,16 +141,23 @@ class InputState:
         return (("left", self.left), ("right", self.right))
 
 
+def buttons_down(hand: HandInput) -> frozenset[Button]:
+    return frozenset(button for button in Button if getattr(hand, button))
+
+
 @dataclass(frozen=True)
 class Command:
-    """``kind``: ``scrub`` (``value`` hours), ``speed`` (``value`` hours/s added),
-    ``speed_step`` (±1 along SPEED_STEPS), ``play_pause``, ``next_preset``, ``toggle_lambert``,
-    ``toggle_comfort``, ``bring_bench``, ``press`` (trigger pulled; ``hand`` aims at
-    something)."""
+    """``kind`` (a ``CommandKind``, or its value): ``scrub`` (``value`` hours), ``speed``
+    (``value`` hours/s added), ``speed_step`` (±1 along SPEED_STEPS), ``play_pause``,
+    ``next_preset``, ``toggle_lambert``, ``toggle_comfort``, ``bring_bench``, ``press`` (trigger
+    pulled; ``hand`` aims at something). An unknown kind raises ``ValueError``."""
 
-    kind: str
+    kind: CommandKind
     value: float = 0.0
     hand: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", CommandKind(self.kind))
 
 
 def _dead_zone(value: float) -> float:
@@ -139,15 +177,14 @@ def commands_from_input(previous: InputState, current: InputState, dt_s: float) 
     scrub = _dead_zone(current.left.stick[0]) * SCRUB_HOURS_PER_S * dt_s
     speed = _dead_zone(current.left.stick[1]) * SPEED_CHANGE_PER_S * dt_s
     for (hand, now), (_, before) in zip(current.hands(), previous.hands(), strict=True):
-        for kind in ("play_pause", "next_preset", "toggle_lambert", "bring_bench"):
-            if getattr(now, kind) and not getattr(before, kind):
-                commands.append(Command(kind, hand=hand))
+        pressed = buttons_down(now) - buttons_down(before)
+        commands += [Command(button.command, hand=hand) for button in Button if button in pressed]
         if now.select >= TRIGGER_PRESS and before.select < TRIGGER_PRESS:
-            commands.append(Command("press", hand=hand))
+            commands.append(Command(CommandKind.PRESS, hand=hand))
     if scrub:
-        commands.insert(0, Command("scrub", scrub))
+        commands.insert(0, Command(CommandKind.SCRUB, scrub))
     if speed:
-        commands.insert(0, Command("speed", speed))
+        commands.insert(0, Command(CommandKind.SPEED, speed))
     return commands
 
 
@@ -162,38 +199,39 @@ class ViewerControls:
     preset_index: int = 0
     preset_count: int = 1
     previous_mode: str = "full"
-    comfort: bool = True  # the vignette over teleports and turns
+    comfort: bool = True  # the vignette over teleports and turns: its only switch
 
 
 def apply_command(
     controls: ViewerControls, view: ViewState, command: Command
 ) -> tuple[ViewerControls, dict]:
     """The controls after ``command``, and the changes it makes to the view (``ViewState``
-    fields, for ``ViewModel.update``); ``press`` is the workbench's to resolve and changes
-    nothing here."""
-    kind = command.kind
-    if kind == "scrub":
-        return controls, {"hours": wrap_hours(view.hours + command.value)}
-    if kind == "speed":
-        return controls, {"day_speed": min(max(view.day_speed + command.value, 0.0), MAX_DAY_SPEED)}
-    if kind == "speed_step":
-        return controls, {"day_speed": _step_speed(view.day_speed, int(command.value))}
-    if kind == "play_pause":
-        playing = not view.playing
-        # Playing a day whose speed is 0 would look broken: start it at real-time-ish speed.
-        speed = view.day_speed if view.day_speed > 0 or not playing else SPEED_STEPS[3]
-        return controls, {"playing": playing, "day_speed": speed}
-    if kind == "next_preset":
-        count = max(controls.preset_count, 1)
-        return replace(controls, preset_index=(controls.preset_index + 1) % count), {}
-    if kind == "toggle_lambert":
-        if view.mode == COMPARISON_MODE:
-            back = controls.previous_mode if controls.previous_mode != COMPARISON_MODE else "full"
-            return controls, {"mode": back}
-        return replace(controls, previous_mode=view.mode), {"mode": COMPARISON_MODE}
-    if kind == "toggle_comfort":
-        return replace(controls, comfort=not controls.comfort), {}
-    return controls, {}
+    fields, for ``ViewModel.update``); ``press`` and ``bring_bench`` change neither."""
+    match command.kind:
+        case CommandKind.SCRUB:
+            return controls, {"hours": wrap_hours(view.hours + command.value)}
+        case CommandKind.SPEED:
+            speed = min(max(view.day_speed + command.value, 0.0), MAX_DAY_SPEED)
+            return controls, {"day_speed": speed}
+        case CommandKind.SPEED_STEP:
+            return controls, {"day_speed": _step_speed(view.day_speed, int(command.value))}
+        case CommandKind.PLAY_PAUSE:
+            playing = not view.playing
+            # Playing a day whose speed is 0 would look broken: start it at real-time-ish speed.
+            speed = view.day_speed if view.day_speed > 0 or not playing else SPEED_STEPS[3]
+            return controls, {"playing": playing, "day_speed": speed}
+        case CommandKind.NEXT_PRESET:
+            count = max(controls.preset_count, 1)
+            return replace(controls, preset_index=(controls.preset_index + 1) % count), {}
+        case CommandKind.TOGGLE_LAMBERT:
+            if view.mode == COMPARISON_MODE:
+                back = controls.previous_mode
+                return controls, {"mode": back if back != COMPARISON_MODE else "full"}
+            return replace(controls, previous_mode=view.mode), {"mode": COMPARISON_MODE}
+        case CommandKind.TOGGLE_COMFORT:
+            return replace(controls, comfort=not controls.comfort), {}
+        case CommandKind.PRESS | CommandKind.BRING_BENCH:
+            return controls, {}  # the workbench's and the stage's (``FrameLoop.run_command``)
 
 
 def _step_speed(speed: float, steps: int) -> float:

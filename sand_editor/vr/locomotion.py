@@ -127,14 +127,14 @@ class Locomotion:
     """The user's place in the world and the jumps that change it.
 
     ``origin`` is where the tracking space sits; ``aim`` the teleport being aimed (None when
-    none); ``teleports`` and ``turns`` count the jumps; ``comfort`` turns the vignette on.
+    none); ``teleports`` and ``turns`` count the jumps; ``vignette`` is how far a jump closes
+    the comfort vignette (the viewer's controls say whether it is drawn).
     ``teleport_to`` and ``turn`` make the same jumps as the controls, for the link."""
 
-    def __init__(self, terrain, origin: TrackingOrigin, comfort: bool = True, blocked=None) -> None:
+    def __init__(self, terrain, origin: TrackingOrigin, blocked=None) -> None:
         self.terrain = terrain
         self.blocked = blocked  # blocked(point): no landing there (the desk)
         self.origin = origin
-        self.comfort = comfort
         self.floor_lift = 0.0  # for a space whose origin is the head: the standing height
         self.aim: Aim | None = None
         self.teleports = 0
@@ -208,7 +208,7 @@ class Locomotion:
 
     def vignette(self, now_s: float) -> float:
         """How far the comfort vignette is closed, 0 (open) to 1, ``now_s`` after a jump."""
-        if not self.comfort or self.last_jump_s is None:
+        if self.last_jump_s is None:
             return 0.0
         elapsed = now_s - self.last_jump_s
         if not (0.0 <= elapsed < VIGNETTE_S):

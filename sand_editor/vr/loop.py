@@ -27,6 +27,8 @@ from sand_editor.vr._messages import LINK, answer_error, handle_link
 from sand_editor.vr._report import FrameStats, count_levels_of_detail, loop_report
 from sand_editor.vr._resources import gl_object_counts, resident_mb
 from sand_editor.vr.actions import (
+    Command,
+    CommandKind,
     InputState,
     ViewerControls,
     apply_command,
@@ -81,7 +83,7 @@ class FrameLoop:
         self.view.connect(self._view_changed)
         self.renderer = SandRenderer(self.ctx)
         self.renderer.adapt_over_time = True
-        self.stage = Stage(self.ctx, self.renderer, backend.floor_level, options.comfort)
+        self.stage = Stage(self.ctx, self.renderer, backend.floor_level)
         self.worker = GrainWorker(windows.glfw, windows.worker, options.texture_size)
         self.material = None
         self.shown_preset: Preset | None = None
@@ -125,7 +127,7 @@ class FrameLoop:
             self.renderer.render(target, camera, sky_at(state.hours), scene=scene,
                                  extra=self.stage.props([pose]), depth_out=True)  # fmt: skip
             target.use()
-            self.stage.overlay(camera, (0, 0, 64, 48), state, "", [pose])
+            self.stage.overlay(camera, (0, 0, 64, 48), state, "", [pose], comfort=True)
             finish_without_gil()
         finally:
             # Nothing may stay bound to a released framebuffer (the next draw restores it).
@@ -234,7 +236,7 @@ class FrameLoop:
                     exposure=exposure, extra=props, depth_out=True,
                 )["exposure"]  # fmt: skip
                 target.use()
-                self.stage.overlay(camera, viewport, state, name, rays)
+                self.stage.overlay(camera, viewport, state, name, rays, self.controls.comfort)
                 finish_without_gil()
                 if screenshot:
                     images.append(read_pixels(target, viewport))
@@ -284,25 +286,28 @@ class FrameLoop:
     def _apply_input(self, state: InputState, dt: float) -> None:
         self.stage.aim_hands(state)
         for command in commands_from_input(self.previous_input, state, dt):
-            if command.kind == "press":
-                command = self.workbench.press(command.hand)
-                if command is None:
-                    continue  # a trigger away from the panel aims a teleport instead
             self.run_command(command)
         self.stage.locomote(self.previous_input, state)
         self.previous_input = state
 
-    def run_command(self, command) -> None:
-        """A command from the controllers, the keys, the panel or the link."""
-        if command.kind == "bring_bench":
-            self.stage.bring_bench()
-            return
-        before = self.controls
-        self.controls, changes = apply_command(self.controls, self.view.state, command)
-        self.view.update(INPUT, **changes)
-        self.stage.locomotion.comfort = self.controls.comfort
-        if self.controls.preset_index != before.preset_index:
-            self.worker.request(self.presets[self._index()][1])
+    def run_command(self, command: Command) -> None:
+        """The one dispatcher of commands, from the controllers, the keys, the panel or the
+        link: a trigger pulled presses the panel button it aims at (away from the panel it aims
+        a teleport, which ``Stage.locomote`` does), the bench is the stage's to bring, and the
+        rest change the controls and the view."""
+        match command.kind:
+            case CommandKind.PRESS:
+                pressed = self.workbench.press(command.hand)
+                if pressed is not None:
+                    self.run_command(pressed)
+            case CommandKind.BRING_BENCH:
+                self.stage.bring_bench()
+            case _:
+                before = self.controls
+                self.controls, changes = apply_command(self.controls, self.view.state, command)
+                self.view.update(INPUT, **changes)
+                if self.controls.preset_index != before.preset_index:
+                    self.worker.request(self.presets[self._index()][1])
 
     @property
     def workbench(self):

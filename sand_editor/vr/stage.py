@@ -24,14 +24,14 @@ STANDING_EYE_HEIGHT_M = 1.6
 class Stage:
     """The user's place (``locomotion``) and the ``workbench``, on ``renderer``'s terrain."""
 
-    def __init__(self, ctx, renderer, floor_level: bool, comfort: bool = True) -> None:
+    def __init__(self, ctx, renderer, floor_level: bool) -> None:
         self.ctx = ctx
         self.renderer = renderer
         self.floor_level = floor_level
         self.workbench: Workbench | None = None
         self._place_workbench((0.0, 0.0), 0.0)
         self.bench_moves = 0  # placing the first bench was no move
-        self.locomotion = Locomotion(renderer.terrain, TrackingOrigin(), comfort, self.blocks)
+        self.locomotion = Locomotion(renderer.terrain, TrackingOrigin(), self.blocks)
         self.placed = False  # the tracking space is put on the dune at the first frame
         self.head: np.ndarray | None = None  # between the eyes, in the tracking space
         self.eyes: list[EyeView] = []  # the latest eyes, in the tracking space
@@ -95,11 +95,13 @@ class Stage:
 
         return draw
 
-    def overlay(self, camera, viewport, state, preset_name: str, rays) -> None:
-        """Over an eye's finished image: panel, rays, the arc and the comfort vignette."""
+    def overlay(self, camera, viewport, state, preset_name: str, rays, comfort: bool) -> None:
+        """Over an eye's finished image: panel, rays, the arc and, where ``comfort`` (the
+        controls' switch) is on, the vignette."""
         self.workbench.draw(self.ctx, camera, viewport, state, preset_name, rays,
                             self.locomotion.aim)  # fmt: skip
-        self.workbench.draw_vignette(self.ctx, viewport, self.locomotion.vignette(self.now_s))
+        vignette = self.locomotion.vignette(self.now_s) if comfort else 0.0
+        self.workbench.draw_vignette(self.ctx, viewport, vignette)
 
     # ---- jumps asked for -----------------------------------------------------------------------
 
@@ -151,7 +153,6 @@ class Stage:
             "teleports": self.locomotion.teleports,
             "snap_turns": self.locomotion.turns,
             "bench_moves": self.bench_moves,
-            "comfort_vignette": self.locomotion.comfort,
             "head_in_world": None if head is None else [round(float(v), 3) for v in head],
             "yaw_deg": round(float(np.degrees(self.locomotion.origin.yaw)), 2),
         }

@@ -17,7 +17,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from sand_editor.render.camera import Camera
 from sand_editor.view import ViewState, format_time
-from sand_editor.vr.actions import Command
+from sand_editor.vr.actions import Command, CommandKind
 from sand_editor.vr.bench_draw import BenchGraphics
 from sand_editor.vr.bench_meshes import DESK_SIZE_M, DeskLayout
 
@@ -27,30 +27,48 @@ PANEL_PIXELS = (1024, 576)  # about 2100 pixels per metre: sharp at a headset's 
 PANEL_OFFSET_M = (-0.05, -0.24)  # its lower edge's middle from the desk top's (x, z)
 RAY_LENGTH_M = 3.0
 
-# Buttons in panel coordinates (u right, v up, 0..1), one row along the bottom edge:
-# name → (u0, v0, u1, v1, label, command).
+
+@dataclass(frozen=True)
+class PanelButton:
+    """A button on the panel: its ``box`` in panel coordinates (u0, v0, u1, v1; u right, v up,
+    0..1), its ``label`` and the ``command`` a press runs."""
+
+    name: str
+    label: str
+    command: Command
+    box: tuple[float, float, float, float]
+
+    def contains(self, u: float, v: float) -> bool:
+        u0, v0, u1, v1 = self.box
+        return u0 <= u <= u1 and v0 <= v <= v1
+
+
+# One row along the panel's bottom edge.
 _BUTTON_ROW = [
-    ("earlier", "-1 h", Command("scrub", -1.0)),
-    ("later", "+1 h", Command("scrub", 1.0)),
-    ("play", "play", Command("play_pause")),
-    ("slower", "slower", Command("speed_step", -1)),
-    ("faster", "faster", Command("speed_step", 1)),
-    ("sand", "sand >", Command("next_preset")),
-    ("lambert", "Lambert", Command("toggle_lambert")),
-    ("comfort", "vignette", Command("toggle_comfort")),
+    ("earlier", "-1 h", Command(CommandKind.SCRUB, -1.0)),
+    ("later", "+1 h", Command(CommandKind.SCRUB, 1.0)),
+    ("play", "play", Command(CommandKind.PLAY_PAUSE)),
+    ("slower", "slower", Command(CommandKind.SPEED_STEP, -1)),
+    ("faster", "faster", Command(CommandKind.SPEED_STEP, 1)),
+    ("sand", "sand >", Command(CommandKind.NEXT_PRESET)),
+    ("lambert", "Lambert", Command(CommandKind.TOGGLE_LAMBERT)),
+    ("comfort", "vignette", Command(CommandKind.TOGGLE_COMFORT)),
 ]
 _ROW_V = (0.04, 0.21)
 _ROW_U = (0.015, 0.985)
 _GAP_U = 0.008
 _WIDTH_U = (_ROW_U[1] - _ROW_U[0] - _GAP_U * (len(_BUTTON_ROW) - 1)) / len(_BUTTON_ROW)
 BUTTONS = {
-    name: (
-        _ROW_U[0] + i * (_WIDTH_U + _GAP_U),
-        _ROW_V[0],
-        _ROW_U[0] + i * (_WIDTH_U + _GAP_U) + _WIDTH_U,
-        _ROW_V[1],
+    name: PanelButton(
+        name,
         label,
         command,
+        (
+            _ROW_U[0] + i * (_WIDTH_U + _GAP_U),
+            _ROW_V[0],
+            _ROW_U[0] + i * (_WIDTH_U + _GAP_U) + _WIDTH_U,
+            _ROW_V[1],
+        ),
     )
     for i, (name, label, command) in enumerate(_BUTTON_ROW)
 }
@@ -100,10 +118,7 @@ class PanelFrame:
 
 
 def button_at(u: float, v: float) -> str | None:
-    for name, (u0, v0, u1, v1, *_rest) in BUTTONS.items():
-        if u0 <= u <= u1 and v0 <= v <= v1:
-            return name
-    return None
+    return next((name for name, button in BUTTONS.items() if button.contains(u, v)), None)
 
 
 class Workbench:
@@ -145,7 +160,7 @@ class Workbench:
     def press(self, hand: str) -> Command | None:
         """The command of the button ``hand`` points at, if any."""
         name = self.hovered.get(hand)
-        return None if name is None else BUTTONS[name][5]
+        return None if name is None else BUTTONS[name].command
 
     # ---- drawing ---------------------------------------------------------------------------
 
@@ -175,8 +190,9 @@ class Workbench:
         draw.text((330 * k, 70 * k), speed, font=small, fill=text_colour)
         draw.text((28 * k, 150 * k), sand, font=small, fill=text_colour)
         draw.text((28 * k, 205 * k), mode, font=small, fill=text_colour)
-        for name, (u0, v0, u1, v1, label, _command) in BUTTONS.items():
-            label = play if name == "play" else label
+        for name, button in BUTTONS.items():
+            label = play if name == "play" else button.label
+            u0, v0, u1, v1 = button.box
             box = (u0 * width, (1 - v1) * height, u1 * width, (1 - v0) * height)
             fill = (214, 160, 80) if name in hovered else (70, 60, 50)
             draw.rounded_rectangle(box, radius=10 * k, fill=fill, outline=(150, 130, 100),

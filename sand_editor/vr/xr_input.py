@@ -7,7 +7,7 @@ from contextlib import ExitStack
 
 import xr
 
-from sand_editor.vr.actions import HandInput, InputState
+from sand_editor.vr.actions import Button, HandInput, InputState
 from sand_editor.vr.xrmath import Pose
 
 
@@ -47,10 +47,7 @@ class ControllerInput:
             hands[hand] = HandInput(
                 stick=self._vector(actions["scrub" if hand == "left" else "locomote"], path),
                 select=self._float(actions["select"], path),
-                play_pause=self._boolean(actions["play_pause"], path),
-                next_preset=self._boolean(actions["next_preset"], path),
-                toggle_lambert=self._boolean(actions["toggle_lambert"], path),
-                bring_bench=self._boolean(actions["bring_bench"], path),
+                **{button: self._boolean(actions[button], path) for button in Button},
                 aim=self._aim(hand, display_time),
             )
         return InputState(**hands)

@@ -11,6 +11,8 @@ import math
 import sys
 import time
 
+import numpy as np
+
 from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
 from sand_editor.vr.actions import HandInput, InputState
@@ -53,18 +55,20 @@ def main() -> None:
     backend = None
 
     def aim_at(name: str) -> Pose:
-        u0, v0, u1, v1, *_ = BUTTONS[name]
+        u0, v0, u1, v1 = BUTTONS[name].box
         panel = loop.workbench.panel
         point = (
             panel.center
             + ((u0 + u1) / 2 - 0.5) * panel.size[0] * panel.right
             + ((v0 + v1) / 2 - 0.5) * panel.size[1] * panel.up
         )
-        # The aim pose is in tracking space: the loop moves it by the tracking origin (not
-        # turned yet when the panel is pressed).
-        offset = loop.stage.locomotion.origin.offset
-        origin = point + 0.6 * panel.normal - offset
-        direction = point - offset - origin
+        # The aim pose is in tracking space: the loop turns it by the tracking origin's yaw
+        # and moves it by its offset.
+        origin_now = loop.stage.locomotion.origin
+        to_tracking = origin_now.rotation().T
+        world_from = point + 0.6 * panel.normal
+        origin = to_tracking @ (world_from - np.asarray(origin_now.offset))
+        direction = to_tracking @ (point - world_from)
         yaw = math.atan2(-direction[0], -direction[2])
         pitch = math.atan2(direction[1], math.hypot(direction[0], direction[2]))
         return Pose.from_yaw_pitch(origin, yaw, pitch)
@@ -87,6 +91,8 @@ def main() -> None:
             return InputState(right=HandInput(select=1.0, aim=throw))
         if frame == 84:
             return InputState(left=HandInput(bring_bench=True))
+        if 88 <= frame < 92:  # the vignette's button on the brought bench, turned 30°
+            return InputState(left=HandInput(aim=aim_at("comfort"), select=float(frame >= 90)))
         return InputState(right=HandInput(aim=throw))
 
     link = RecordingLink()

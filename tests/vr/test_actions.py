@@ -12,7 +12,9 @@ from sand_editor.vr.actions import (
     BINDINGS,
     SCRUB_HOURS_PER_S,
     SPEED_STEPS,
+    Button,
     Command,
+    CommandKind,
     HandInput,
     InputState,
     ViewerControls,
@@ -121,6 +123,29 @@ def test_buttons_and_trigger_act_on_the_press_only():
     assert ("toggle_lambert", "right") in kinds
     assert ("press", "left") in kinds
     assert commands_from_input(down, down, 0.01) == []
+
+
+def test_each_button_is_an_action_a_hand_field_and_a_command():
+    for button in Button:
+        assert ACTIONS[button][0] == "boolean"
+        pressed = InputState(right=HandInput(**{button: True}))
+        (command,) = commands_from_input(InputState(), pressed, 0.01)
+        assert command.kind is button.command and command.hand == "right"
+    actions = {name for name, (kind, _) in ACTIONS.items() if kind == "boolean"}
+    assert actions == set(Button)
+
+
+def test_commands_are_of_a_known_kind():
+    assert Command("scrub", 1.0).kind is CommandKind.SCRUB
+    with pytest.raises(ValueError, match="toggle_sun"):
+        Command("toggle_sun")
+
+
+def test_the_vignette_switch_is_the_controls_own():
+    controls = ViewerControls()
+    off, changes = apply_command(controls, ViewState(), Command(CommandKind.TOGGLE_COMFORT))
+    assert (controls.comfort, off.comfort, changes) == (True, False, {})
+    assert apply_command(off, ViewState(), Command(CommandKind.TOGGLE_COMFORT))[0].comfort
 
 
 def _apply(view: ViewState, kind: str, value: float = 0.0, controls=None):

@@ -82,3 +82,7 @@ def test_walking_far_rebuilds_the_terrain_once_per_level_of_detail_change(script
     report = scripted["report"]
     assert report["terrain_meshes_built"] <= report["head_level_of_detail_changes"]
     assert report["terrain_meshes_built"] >= 2  # the teleports moved the rings
+
+
+def test_the_vignette_button_on_the_brought_and_turned_bench_switches_the_vignette_off(scripted):
+    assert scripted["report"]["locomotion"]["comfort_vignette"] is False

@@ -148,8 +148,6 @@ def test_the_vignette_closes_at_a_jump_and_opens_again():
     assert loco.vignette(10.0) == pytest.approx(1.0)
     assert 0.0 < loco.vignette(10.0 + VIGNETTE_S / 2) < 1.0
     assert loco.vignette(10.0 + VIGNETTE_S * 1.001) == 0.0
-    loco.comfort = False
-    assert loco.vignette(10.0) == 0.0
 
 
 finite = st.floats(-1e6, 1e6, allow_nan=False)

@@ -66,7 +66,8 @@ def test_the_bench_turned_to_face_the_user_keeps_its_shape():
 
 def test_a_ray_at_each_button_hits_that_button(bench):
     panel = bench.panel
-    for name, (u0, v0, u1, v1, *_rest) in BUTTONS.items():
+    for name, button in BUTTONS.items():
+        u0, v0, u1, v1 = button.box
         u, v = (u0 + u1) / 2, (v0 + v1) / 2
         point = (
             panel.center
@@ -76,7 +77,7 @@ def test_a_ray_at_each_button_hits_that_button(bench):
         hit = bench.aim("right", _aim_at(point))
         assert hit is not None and hit[0] == pytest.approx(u) and hit[1] == pytest.approx(v)
         assert bench.hovered["right"] == name
-        assert bench.press("right") == BUTTONS[name][5]
+        assert bench.press("right") == button.command
 
 
 def test_rays_that_miss_or_come_from_behind_press_nothing(bench):
@@ -88,7 +89,7 @@ def test_rays_that_miss_or_come_from_behind_press_nothing(bench):
 
 
 def test_buttons_lie_on_the_panel_without_overlapping():
-    boxes = sorted(b[:4] for b in BUTTONS.values())
+    boxes = sorted(b.box for b in BUTTONS.values())
     for u0, v0, u1, v1 in boxes:
         assert 0 <= u0 < u1 <= 1 and 0 <= v0 < v1 <= 1
     for left, right in zip(boxes, boxes[1:], strict=False):
