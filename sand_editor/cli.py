@@ -15,8 +15,6 @@ from sand_editor.resources import bundled_preset
 from sand_editor.untrusted import integer, number, printable, shorten
 
 MAX_ERROR_CHARS = 500  # one line on stderr, whatever the input held
-# The viewer's grain texture sizes: the editor's preview sizes (whose tiles it shares) and more.
-VR_TEXTURE_SIZES = (256, 512, 1024, 2048)
 PROGRESS_WIDTH = 30
 MIN_PATCH_M, MAX_PATCH_M = 0.01, 1000.0
 COMMANDS = ("edit", "bake", "export", "render", "vr", "bench")
@@ -265,6 +263,15 @@ def _parser() -> argparse.ArgumentParser:
         description="Design glinty sand materials. With no command, opens the editor.",
     )
     sub = parser.add_subparsers(dest="command")
+    from sand_editor.generator.sizes import (
+        DEFAULT_BAKE_SIZE,
+        DEFAULT_EXPORT_SIZE,
+        DEFAULT_RENDER_SIZE,
+        SIZE_RANGE,
+        VR_SIZES,
+    )
+
+    size_help = f"texture edge in pixels ({SIZE_RANGE})"
 
     edit = sub.add_parser("edit", help="open the editor (the default command)")
     edit.add_argument("preset", nargs="?", help="preset file or bundled preset name")
@@ -282,7 +289,12 @@ def _parser() -> argparse.ArgumentParser:
 
     bake = sub.add_parser("bake", help="write a preset's grain textures as PNG files")
     bake.add_argument("preset", help="preset file or bundled preset name")
-    bake.add_argument("--size", type=integer, default=2048, help="texture edge in pixels (64-4096)")
+    bake.add_argument(
+        "--size",
+        type=integer,
+        default=DEFAULT_BAKE_SIZE,
+        help=size_help,
+    )
     bake.add_argument("--out", required=True, help="output folder (created if missing)")
     from sand_editor.bake import DEFAULT_TARGET, TARGETS
     from sand_editor.export.images import FORMATS as MAP_FORMATS
@@ -310,7 +322,10 @@ def _parser() -> argparse.ArgumentParser:
     export.add_argument("--out", required=True, help="the .glb or .gltf file to write")
     export.add_argument("--format", choices=["glb", "gltf"], help="default: from --out's suffix")
     export.add_argument(
-        "--size", type=integer, default=1024, help="texture edge in pixels (64-4096)"
+        "--size",
+        type=integer,
+        default=DEFAULT_EXPORT_SIZE,
+        help=size_help,
     )
     export.add_argument("--patch", type=number, default=2.0, help="edge of the patch in metres")
     export.add_argument("--sphere", action="store_true", help="put the sand sphere on the patch")
@@ -360,10 +375,10 @@ def _parser() -> argparse.ArgumentParser:
     vr.add_argument(
         "--texture-size",
         type=integer,
-        choices=VR_TEXTURE_SIZES,
-        default=1024,
+        choices=VR_SIZES,
+        default=DEFAULT_RENDER_SIZE,
         metavar="N",
-        help=f"grain texture size in pixels, one of {', '.join(map(str, VR_TEXTURE_SIZES))}",
+        help=f"grain texture size in pixels, one of {', '.join(map(str, VR_SIZES))}",
     )
     vr.add_argument(
         "--screenshot",
@@ -385,7 +400,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
     bench.add_argument(
-        "--sizes", type=integer, nargs="+", metavar="N", help="texture sizes to measure (64-4096)"
+        "--sizes",
+        type=integer,
+        nargs="+",
+        metavar="N",
+        help=f"texture sizes to measure ({SIZE_RANGE})",
     )
     bench.add_argument("--json", help="write the results as JSON to this file")
     bench.add_argument("--plot", help="draw the results into this PNG file")

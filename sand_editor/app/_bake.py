@@ -12,8 +12,6 @@ from PySide6.QtWidgets import QProgressDialog, QWidget
 
 from sand_editor.preset import Preset
 
-BAKE_SIZES = (512, 1024, 2048, 4096)
-DEFAULT_BAKE_SIZE = 2048
 _PROGRESS_STEPS = 1000
 
 

@@ -24,12 +24,11 @@ from sand_editor.app._view3d import View3DPanel
 from sand_editor.colour import linear_to_srgb
 from sand_editor.generator import SandTextures
 from sand_editor.generator.noise import MAX_LAYERS
+from sand_editor.generator.sizes import DEFAULT_PREVIEW_SIZE, PREVIEW_SIZES
 from sand_editor.view import ViewModel
 
 CHANNELS = ("Albedo", "Normals", "Glint", "Layers")
 TAB_3D = "3D"
-PREVIEW_SIZES = (256, 512, 1024)
-DEFAULT_PREVIEW_SIZE = 512
 ZOOMS = {"Fit": None, "1:1": 1, "2:1": 2}
 
 

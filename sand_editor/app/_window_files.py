@@ -8,9 +8,9 @@ from pathlib import Path
 from PySide6.QtCore import QBuffer, QByteArray, QIODevice
 from PySide6.QtWidgets import QFileDialog, QInputDialog, QMessageBox
 
-from sand_editor.app._bake import BAKE_SIZES, DEFAULT_BAKE_SIZE, BakeDialog, BakeJob
-from sand_editor.export.run import DEFAULT_TEXTURE_SIZE as EXPORT_SIZE
+from sand_editor.app._bake import BakeDialog, BakeJob
 from sand_editor.files import OutputError, file_stem, write_atomic
+from sand_editor.generator.sizes import BAKE_SIZES, DEFAULT_BAKE_SIZE, DEFAULT_EXPORT_SIZE
 from sand_editor.preset import GLTF_SUFFIXES
 
 _IMAGE_FILTER = "PNG images (*.png)"
@@ -92,7 +92,7 @@ class WindowFiles:
             return
         if Path(chosen).suffix.lower() not in (".glb", ".gltf"):
             chosen += ".glb"
-        self.bake_to(Path(chosen), EXPORT_SIZE, export=True)
+        self.bake_to(Path(chosen), DEFAULT_EXPORT_SIZE, export=True)
 
     def bake_to(self, folder: Path, size: int, export: bool = False) -> BakeDialog:
         """Start baking the current preset into ``folder`` (with ``export``: the glTF asset to

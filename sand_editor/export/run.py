@@ -8,9 +8,8 @@ from sand_editor.export.gltf import FORMATS, PatchOptions, export_files
 from sand_editor.export.maps import material_maps
 from sand_editor.export.steps import Steps, generation_steps
 from sand_editor.files import check_regular_target, write_atomic, write_folder
+from sand_editor.generator.sizes import DEFAULT_EXPORT_SIZE
 from sand_editor.preset import Preset
-
-DEFAULT_TEXTURE_SIZE = 1024
 
 
 def format_for(out: Path, fmt: str | None) -> str:
@@ -48,7 +47,7 @@ class ExportSteps(Steps):
         preset: Preset,
         out: Path,
         fmt: str | None = None,
-        size: int = DEFAULT_TEXTURE_SIZE,
+        size: int = DEFAULT_EXPORT_SIZE,
         options: PatchOptions | None = None,
         ctx=None,
     ) -> None:

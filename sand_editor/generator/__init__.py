@@ -12,6 +12,7 @@ import numpy as np
 
 from sand_editor.generator._textures import SandTextures
 from sand_editor.generator.noise import NoiseConstants
+from sand_editor.generator.sizes import MAX_SIZE, MIN_SIZE, check_size
 
 __all__ = [
     "BACKENDS",
@@ -19,24 +20,13 @@ __all__ = [
     "MAX_SIZE",
     "MIN_SIZE",
     "SandTextures",
+    "check_size",
     "generate",
     "generate_progressive",
     "gl_generator",
 ]
 
 BACKENDS = ("gl", "reference")
-MIN_SIZE = 64
-MAX_SIZE = 4096
-
-
-def check_size(size) -> int:
-    if isinstance(size, bool) or not isinstance(size, (int, np.integer)):
-        raise ValueError(
-            f"texture size must be an integer from {MIN_SIZE} to {MAX_SIZE}, got {size!r}"
-        )
-    if not MIN_SIZE <= size <= MAX_SIZE:
-        raise ValueError(f"texture size {size} is out of range; allowed {MIN_SIZE} to {MAX_SIZE}")
-    return int(size)
 
 
 def _generation(preset_or_generation):

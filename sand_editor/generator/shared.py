@@ -26,6 +26,7 @@ import numpy as np
 
 from sand_editor.generator._textures import SandTextures
 from sand_editor.generator.noise import MAX_LAYERS, PROFILE_OFFSET, PROFILE_SCALE, UNIT_8
+from sand_editor.generator.sizes import SHARED_SIZES
 
 # (field, dtype, channels), in the order they lie in the segment.
 LAYOUT = (
@@ -36,7 +37,7 @@ LAYOUT = (
     ("grain_id", np.uint32, 1),
     ("layer", np.int8, 1),
 )
-SIZES = (64, 128, 256, 512, 1024, 2048)
+SIZES = SHARED_SIZES
 # Names Python makes ("psm_" and hex) and others of the kind; never a path, nor "." or "..".
 NAME_PATTERN = re.compile(r"(?!\.)[A-Za-z0-9_.-]{1,64}")
 NAME_RULE = "1-64 letters, digits, '_', '.' or '-', not starting with '.'"

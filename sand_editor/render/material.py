@@ -22,6 +22,7 @@ from sand_editor.generator.noise import (
     NoiseConstants,
     colour_thresholds,
 )
+from sand_editor.generator.sizes import DEFAULT_RENDER_SIZE
 from sand_editor.gl import (
     GLObjects,
     build_mipmaps_without_gil,
@@ -44,7 +45,6 @@ from sand_editor.render.far_brdf import sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
 from sand_editor.render.shadows import SHADER_DEFINES as SHADOW_DEFINES
 
-DEFAULT_TEXTURE_SIZE = 1024
 GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
 DETAIL_MAP_SIZE = 256
 # Close-range work is skipped where the far term's blend weight is above this.
@@ -122,7 +122,7 @@ def detail_slopes(size: int, seed: int) -> np.ndarray:
 class SandMaterial:
     """GPU resources of a sand preset, for ``shaders/sand_surface.glsl``."""
 
-    def __init__(self, ctx: moderngl.Context, texture_size: int = DEFAULT_TEXTURE_SIZE) -> None:
+    def __init__(self, ctx: moderngl.Context, texture_size: int = DEFAULT_RENDER_SIZE) -> None:
         self.ctx = ctx
         self.texture_size = check_size(texture_size)
         self.preset: Preset | None = None  # whose shading is bound

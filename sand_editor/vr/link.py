@@ -22,7 +22,7 @@ import threading
 from typing import IO, Any
 
 from sand_editor.generator.shared import NAME_PATTERN, NAME_RULE
-from sand_editor.generator.shared import SIZES as SHARED_SIZES
+from sand_editor.generator.sizes import SHARED_SIZES
 from sand_editor.untrusted import bounded_number, deeper_than, printable, shorten
 from sand_editor.view import MAX_DAY_SPEED
 

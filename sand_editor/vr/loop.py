@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sand_editor.generator.sizes import DEFAULT_RENDER_SIZE
 from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset, PresetError
 from sand_editor.render.renderer import SandRenderer
@@ -56,7 +57,7 @@ class ViewerOptions:
     day_speed: float = 0.0
     mode: str = "full"
     frames: int | None = None
-    texture_size: int = 1024
+    texture_size: int = DEFAULT_RENDER_SIZE
     screenshot: Path | None = None
     comfort: bool = True  # the vignette over teleports and snap turns
 
