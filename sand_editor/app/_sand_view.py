@@ -34,6 +34,7 @@ from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 
 WHEEL_FACTOR = 1.15
@@ -194,7 +195,7 @@ class SandView(QOpenGLWidget):
         try:
             gl.ctx = moderngl.create_context()
             gl.renderer = SandRenderer(gl.ctx)
-            gl.renderer.adapt_over_time = True
+            gl.renderer.exposure.adapt_over_time = True
             gl.upscale = fullscreen_program(gl.ctx, "upscale.frag")
         except Exception as error:
             self._fail(f"Cannot start the 3D view: {error}")
@@ -293,12 +294,14 @@ class SandView(QOpenGLWidget):
     def _render(self, target, camera, viewport, exposure=None) -> dict:
         return self.renderer.render(
             target,
-            camera,
-            sky_at(self.time_hours),
-            self.mode,
-            viewport=viewport,
-            exposure=self.exposure if exposure is None else exposure,
-            show_sphere=self.show_sphere,
+            FrameRequest(
+                camera,
+                sky_at(self.time_hours),
+                self.mode,
+                viewport=viewport,
+                exposure=self.exposure if exposure is None else exposure,
+                show_sphere=self.show_sphere,
+            ),
         )
 
     def _draw_moving(self, camera, size: tuple[int, int]) -> dict:

@@ -15,6 +15,8 @@ import sys
 
 import numpy as np
 
+from sand_editor.render.request import FrameRequest
+
 DISTANCES = (0.05, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0)
 QUICK_DISTANCES = (0.05, 0.3, 1.0)
 TIMES = ("16:30", "12:00")
@@ -31,7 +33,9 @@ def row_means(renderer, camera, sky, mode: str, size=SIZE) -> np.ndarray:
     from sand_editor.render.exposure import light_exposure
 
     width, height = size
-    renderer.render_to_array(width, height, camera, sky, mode, exposure=light_exposure(sky))
+    renderer.render_to_array(
+        width, height, FrameRequest(camera, sky, mode, exposure=light_exposure(sky))
+    )
     hdr = np.frombuffer(renderer.post.scene_texture.read(), dtype=np.float16)
     hdr = hdr.reshape(height, width, -1)[::-1, :, :3].astype(np.float64)
     assert np.isfinite(hdr).all(), f"{mode} frame is not finite"

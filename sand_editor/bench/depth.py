@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 from sand_editor.bench._optional import optional_module
+from sand_editor.render.request import FrameRequest
 
 DISTANCES = (0.05, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0)
 QUICK_DISTANCES = (0.05, 10.0)
@@ -101,8 +102,8 @@ class Views:
         camera = self.camera(distance, pan_px, size)
         sky = self.sky_at(TIME + later_h)
         start = time.perf_counter()
-        image = self.renderer.render_to_array(width, height, camera, sky, "full",
-                                              exposure=self.exposure)  # fmt: skip
+        request = FrameRequest(camera, sky, "full", exposure=self.exposure)
+        image = self.renderer.render_to_array(width, height, request)
         return image, (time.perf_counter() - start) * 1e3
 
     def camera(self, distance: float, pan_px: float = 0.0, size=SIZE):

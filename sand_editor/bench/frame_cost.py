@@ -11,6 +11,7 @@ import moderngl
 
 from sand_editor.bench.probe import MaterialProbe
 from sand_editor.render.material import CLOSE_CUTOFF, SandMaterial
+from sand_editor.render.request import FrameRequest
 
 STEREO_EYE = (1832, 1920)
 
@@ -55,8 +56,8 @@ def stereo_cost(ctx: moderngl.Context, material: SandMaterial, scale: float, rep
     right = camera_at_distance(2.0, 30.0, width / height, target_xz=(0.032, 0.0))
 
     def frame():
-        renderer.render(target, left, sky, viewport=(0, 0, width, height))
-        renderer.render(target, right, sky, viewport=(width, 0, width, height))
+        renderer.render(target, FrameRequest(left, sky, viewport=(0, 0, width, height)))
+        renderer.render(target, FrameRequest(right, sky, viewport=(width, 0, width, height)))
         ctx.finish()
 
     frame()

@@ -31,6 +31,7 @@ from sand_editor.gl import drawing_into, standalone_context
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.post import PostChain
+from sand_editor.render.request import FrameRequest
 from sand_editor.resources import bundled_preset
 
 DISTANCES = (0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
@@ -243,7 +244,9 @@ class Bench:
                         key = f"{time_text} {distance} m {facing}"
                         results[key] = {
                             mode: sparkle_fraction(
-                                renderer.render_to_array(width, height, camera, sky, mode)
+                                renderer.render_to_array(
+                                    width, height, FrameRequest(camera, sky, mode)
+                                )
                             )
                             for mode in ("full", "reference-look")
                         }

@@ -20,6 +20,7 @@ from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.exposure import light_exposure
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import parse_time, sky_at
 from sand_editor.resources import bundled_preset
 
@@ -191,7 +192,9 @@ class Sweep:
         sky = sky_at(parse_time(time_text))
         metered = mode == "full" if metered is None else metered
         exposure = None if metered else light_exposure(sky)
-        frame = self.renderer.render_to_array(width, height, camera, sky, mode, exposure=exposure)
+        frame = self.renderer.render_to_array(
+            width, height, FrameRequest(camera, sky, mode, exposure=exposure)
+        )
         hdr = np.frombuffer(self.renderer.post.scene_texture.read(), dtype=np.float16)
         return frame, bool(np.isfinite(hdr).all())
 

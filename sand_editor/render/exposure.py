@@ -11,6 +11,7 @@ Over time the exposure follows its target as an eye adapts, in about half a seco
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -73,3 +74,32 @@ class EyeAdaptation:
 
     def reset(self) -> None:
         self.exposure = None
+
+
+class ExposureControl:
+    """The renderer's exposure: fixed when a frame asks for one, else metered from the frame's
+    scene, and in views that run on (the editor's, the headset's: ``adapt_over_time``) followed
+    over time as an eye adapts, the first frame jumping to it; otherwise each frame takes its
+    metered exposure at once, the same on every run."""
+
+    def __init__(self) -> None:
+        self.adapt_over_time = False
+        self.adaptation = EyeAdaptation()
+        self._last_metered: float | None = None
+
+    def for_frame(self, sky, fixed: float | None, light_only: bool):
+        """``fixed``, or a function of the frame's log-average scene luminance giving the
+        exposure (the light's alone where ``light_only``: a debug view or glints alone, which
+        would meter as a black scene)."""
+        if fixed is not None:
+            return fixed
+        now = time.perf_counter()
+        last, self._last_metered = self._last_metered, now
+        dt = now - last if self.adapt_over_time and last is not None else None
+
+        def exposure(scene_luminance: float) -> float:
+            if light_only:
+                return light_exposure(sky)
+            return self.adaptation.step(metered_exposure(sky, scene_luminance), dt)
+
+        return exposure

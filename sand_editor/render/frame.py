@@ -16,6 +16,7 @@ from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import check_mode
 from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import parse_time, sky_at
 from sand_editor.view import MAX_DISTANCE_M, MAX_PITCH_DEG, MIN_DISTANCE_M, MIN_PITCH_DEG
 
@@ -73,5 +74,7 @@ def _draw(renderer, size, distance_m, pitch_deg, sky, mode, sphere):
         ground_height=lambda x, z: float(terrain.height(x, z)),
     )
     start = time.perf_counter()
-    pixels = renderer.render_to_array(width, height, camera, sky, mode, show_sphere=sphere)
+    pixels = renderer.render_to_array(
+        width, height, FrameRequest(camera, sky, mode, show_sphere=sphere)
+    )
     return pixels, (time.perf_counter() - start) * 1e3

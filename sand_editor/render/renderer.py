@@ -19,16 +19,16 @@ from sand_editor.gl import (
     set_uniform,
 )
 from sand_editor.render.camera import Camera
-from sand_editor.render.exposure import EyeAdaptation, light_exposure, metered_exposure
+from sand_editor.render.exposure import ExposureControl
 from sand_editor.render.material import surface_defines
-from sand_editor.render.modes import check_mode, mode_index
+from sand_editor.render.modes import mode_index
 from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.scene import FrameScene, SandMesh, SceneMeshes
 from sand_editor.render.shadows import SceneShadows, SunShadows
 from sand_editor.render.sky import SKY_GRADIENT_EXPONENT, SkyState
 from sand_editor.render.terrain import DuneTerrain
 
-DEBUG_MODES = frozenset({"blend", "normals", "mip"})
 GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the horizon
 SUN_ANGULAR_RADIUS = math.radians(0.6)  # twice the real sun: readable on small previews
 MOON_ANGULAR_RADIUS = math.radians(0.6)
@@ -49,15 +49,11 @@ class SandRenderer:
         self.show_sphere = False
         self.bloom_strength = DEFAULT_BLOOM_STRENGTH
         self.post = PostChain(ctx)
-        # Views that run on (the editor's, the headset's) adapt over time, as an eye does;
-        # otherwise each frame takes its metered exposure at once, the same on every run.
-        self.adapt_over_time = False
         self.relief = True  # grains at their depth and self-shadowed up close (sand_relief.glsl)
         self.tile_variation = True  # the grain tile laid without a repeat (tile_variation.glsl)
         self.sharp_ripples = True  # ripples filtered along each pixel's footprint (sand_far.glsl)
         self.shadows = True  # the sun and the moon cast shadows (render/shadows.py)
-        self.adaptation = EyeAdaptation()
-        self._last_metered: float | None = None
+        self.exposure = ExposureControl()
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
         # shades what lies within the material's close range, the far one only the far term.
         self._owned = GLObjects()
@@ -109,40 +105,18 @@ class SandRenderer:
             head, self.show_sphere if show_sphere is None else show_sphere
         )
 
-    def render(
-        self,
-        target: moderngl.Framebuffer,
-        camera: Camera,
-        sky: SkyState,
-        mode: str = "full",
-        viewport: tuple[int, int, int, int] | None = None,
-        exposure: float | None = None,
-        show_sphere: bool | None = None,
-        scene: FrameScene | None = None,
-        extra=None,
-        depth_out: bool = False,
-    ) -> dict:
-        """Draw one frame into ``viewport`` of ``target`` (its whole area by default).
-
-        ``scene`` is what ``prepare_frame`` chose for this frame; without it the scene is chosen
-        from ``camera`` (one view, as in the editor). Debug modes (``blend``, ``normals``,
-        ``mip``) write the material's values unexposed and unblended, over black. Without
-        ``exposure`` the frame is metered (and with ``adapt_over_time`` the eye's adaptation
-        follows it, the first frame jumping to it); a number fixes it. ``extra(camera, sky,
-        shadows)`` draws more (not sand) into the scene, depth-tested, before it is exposed,
-        lit as the sand is (``shadows``: the frame's ``SceneShadows``); with
-        ``depth_out`` the scene's depth goes into the target's depth buffer too. Returns CPU
-        milliseconds per stage and the exposure used.
-        """
-        check_mode(mode)
-        debug = mode in DEBUG_MODES
-        viewport = tuple(int(v) for v in (viewport or (0, 0, *target.size)))
+    def render(self, target: moderngl.Framebuffer, request: FrameRequest) -> dict:
+        """Draw the frame ``request`` asks for into its viewport of ``target``. Returns CPU
+        milliseconds per stage and the exposure used."""
+        camera, sky, mode, debug = request.camera, request.sky, request.mode, request.debug
+        viewport = request.viewport or (0, 0, *target.size)
         ctx = self.ctx
         times = {}
         start = time.perf_counter()
         self.post.resize(viewport[2], viewport[3])
+        scene = request.scene
         if scene is None:
-            scene = self.prepare_frame(camera, show_sphere)
+            scene = self.prepare_frame(camera, request.show_sphere)
         hdr_target = self.post.scene_framebuffer
         self._shadow_frame = self._shadow_maps(scene, camera, sky, debug, viewport[2:])
         times["shadows_ms"] = _lap(start)
@@ -157,48 +131,34 @@ class SandRenderer:
                 self._prepare_surface(camera, sky, mode)
                 for mesh in (scene.terrain, *scene.objects):
                     self._draw(mesh, camera)
-                if extra is not None:
-                    extra(camera, sky, SceneShadows(self._shadows, self._shadow_frame))
+                if request.extra is not None:
+                    request.extra(camera, sky, SceneShadows(self._shadows, self._shadow_frame))
             times["surface_ms"] = _lap(start) - times["shadows_ms"] - times["sky_ms"]
-        if exposure is None:
-            # Metered from this frame's scene and adapted over time, as an eye does.
-            now = time.perf_counter()
-            last, self._last_metered = self._last_metered, now
-            dt = now - last if self.adapt_over_time and last is not None else None
-
-            def exposure(scene_luminance: float) -> float:
-                if debug or mode == "glints":  # glints alone would meter as a black scene
-                    return light_exposure(sky)
-                return self.adaptation.step(metered_exposure(sky, scene_luminance), dt)
-
+        light_only = debug or mode == "glints"  # glints alone would meter as a black scene
         exposure = self.post.finish(
             target,
             viewport,
-            exposure,
+            self.exposure.for_frame(sky, request.exposure, light_only),
             bloom_strength=0.0 if debug else self.bloom_strength,
             tone_map=not debug,
         )
-        if depth_out:
+        if request.depth_out:
             self.post.copy_depth(target, viewport)
         drawn = ("shadows_ms", "sky_ms", "surface_ms")
         times["post_ms"] = _lap(start) - sum(times[k] for k in drawn)
         times["exposure"] = exposure
         return times
 
-    def render_to_array(
-        self, width: int, height: int, camera: Camera, sky: SkyState, mode: str = "full", **options
-    ) -> np.ndarray:
+    def render_to_array(self, width: int, height: int, request: FrameRequest) -> np.ndarray:
         """The frame as an (height, width, 3) uint8 array, rows top-down."""
         if self._readback is None or self._readback.size != (width, height):
             self._release_readback()
             texture = self.ctx.texture((width, height), 4)
             self._readback = self.ctx.framebuffer([texture])
-        self.render(self._readback, camera, sky, mode, **options)
+        self.render(self._readback, request)
         data = self._readback.read(components=3, alignment=1)
         image = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)
         return image[::-1].copy()
-
-    # ---- passes -----------------------------------------------------------------------------
 
     def _draw_sky(self, camera: Camera, sky: SkyState) -> None:
         rotation_only = camera.view.astype(np.float64).copy()

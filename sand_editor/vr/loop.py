@@ -20,6 +20,7 @@ from sand_editor.generator.sizes import DEFAULT_RENDER_SIZE
 from sand_editor.gl import finish_without_gil
 from sand_editor.preset import Preset, PresetError
 from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import presets_dir
 from sand_editor.view import CLOCK, TIME_FIELDS, ViewModel, ViewState
@@ -83,7 +84,7 @@ class FrameLoop:
         )
         self.view.connect(self._view_changed)
         self.renderer = SandRenderer(self.ctx)
-        self.renderer.adapt_over_time = True
+        self.renderer.exposure.adapt_over_time = True
         self.stage = Stage(self.ctx, self.renderer, backend.floor_level)
         self.worker = GrainWorker(windows.glfw, windows.worker, options.texture_size)
         self.material = None
@@ -125,8 +126,9 @@ class FrameLoop:
             camera = eye_camera(pose, Fov.symmetric(1.4, 4 / 3), NEAR_M, FAR_M)
             scene = self.renderer.prepare_frame(camera, show_sphere=False)
             state = self.view.state
-            self.renderer.render(target, camera, sky_at(state.hours), scene=scene,
-                                 extra=self.stage.props([pose]), depth_out=True)  # fmt: skip
+            request = FrameRequest(camera, sky_at(state.hours), scene=scene,
+                                   extra=self.stage.props([pose]), depth_out=True)  # fmt: skip
+            self.renderer.render(target, request)
             target.use()
             self.stage.overlay(camera, (0, 0, 64, 48), state, "", [pose], comfort=True)
             finish_without_gil()
@@ -232,10 +234,9 @@ class FrameLoop:
         for index, camera in enumerate(cameras):
             start = time.perf_counter()
             with self.backend.eye_target(index) as (target, viewport):
-                exposure = self.renderer.render(
-                    target, camera, sky, state.mode, viewport=viewport, scene=scene,
-                    exposure=exposure, extra=props, depth_out=True,
-                )["exposure"]  # fmt: skip
+                request = FrameRequest(camera, sky, state.mode, viewport, exposure, scene=scene,
+                                       extra=props, depth_out=True)  # fmt: skip
+                exposure = self.renderer.render(target, request)["exposure"]
                 target.use()
                 self.stage.overlay(camera, viewport, state, name, rays, self.controls.comfort)
                 finish_without_gil()

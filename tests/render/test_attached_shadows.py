@@ -12,6 +12,7 @@ import pytest
 
 from sand_editor.colour import LUMINANCE
 from sand_editor.render.camera import Camera
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.shadows import fit_cascades, nearest_depth
 from sand_editor.render.sky import sky_at
 from sand_editor.vr.bench_draw import BenchGraphics
@@ -66,7 +67,9 @@ class _Scene:
         def draw(camera, sky, shadows):
             self.graphics.draw_props(camera, sky, None, shadows)
 
-        self.renderer.render_to_array(SIZE, SIZE, self.camera, self.sky, exposure=1.0, extra=draw)
+        self.renderer.render_to_array(
+            SIZE, SIZE, FrameRequest(self.camera, self.sky, exposure=1.0, extra=draw)
+        )
         return scene_hdr(self.renderer)[..., :3] @ np.asarray(LUMINANCE, np.float32)
 
     def luminance(self, image: np.ndarray, point) -> float:

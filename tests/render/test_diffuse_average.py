@@ -9,6 +9,7 @@ import pytest
 
 from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import bundled_preset
 
@@ -52,7 +53,7 @@ def test_a_flat_stretch_of_sand_shades_without_a_step_across_the_frame(
             3.0, 35.0, W / H, ground_height=lambda x, z: float(terrain.height(x, z)),
             target_xz=(0.37 * view, 0.23 * view),
         )  # fmt: skip
-        image = flat_renderer.render_to_array(W, H, camera, sky_at(hours), mode)
+        image = flat_renderer.render_to_array(W, H, FrameRequest(camera, sky_at(hours), mode))
         ground = image[H * 5 // 9 :].astype(np.float64).mean(axis=2)
         columns = columns + ground.mean(axis=0) / 4.0
     jump = np.abs(columns[COLUMNS:] - columns[:-COLUMNS]).max() / columns.mean()

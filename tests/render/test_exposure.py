@@ -17,6 +17,7 @@ from sand_editor.render.exposure import (
     light_luminance,
     metered_exposure,
 )
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import parse_time, sky_at
 
 NOON = sky_at(parse_time("12:00"))
@@ -89,22 +90,26 @@ def test_black_sand_is_exposed_more_than_white_and_a_fixed_exposure_is_kept(gl_c
         for name in ("black-volcanic", "pale-quartz"):
             material.update(Preset.load(bundled_preset(name)))
             renderer.set_material(material)
-            renderer.adaptation.reset()
-            exposures[name] = renderer.render(target, camera, NOON)["exposure"]
+            renderer.exposure.adaptation.reset()
+            exposures[name] = renderer.render(target, FrameRequest(camera, NOON))["exposure"]
         assert exposures["black-volcanic"] > 1.2 * exposures["pale-quartz"]
         assert exposures["black-volcanic"] < 4.0 * exposures["pale-quartz"]
-        assert renderer.render(target, camera, NOON, exposure=0.75)["exposure"] == 0.75
+        assert (
+            renderer.render(target, FrameRequest(camera, NOON, exposure=0.75))["exposure"] == 0.75
+        )
         # Frames of a still view, one after another: the metered exposure is the same.
-        again = [renderer.render(target, camera, NOON)["exposure"] for _ in range(2)]
+        again = [renderer.render(target, FrameRequest(camera, NOON))["exposure"] for _ in range(2)]
         assert again[0] == pytest.approx(again[1])
         # A view that runs on adapts: the first frame after the change keeps most of the old.
-        renderer.adapt_over_time = True
-        renderer.render(target, camera, NOON, exposure=None)
-        renderer.adaptation.exposure = 10 * again[0]
-        adapted = renderer.render(target, camera, NOON)["exposure"]
+        renderer.exposure.adapt_over_time = True
+        renderer.render(target, FrameRequest(camera, NOON, exposure=None))
+        renderer.exposure.adaptation.exposure = 10 * again[0]
+        adapted = renderer.render(target, FrameRequest(camera, NOON))["exposure"]
         assert again[0] < adapted < 10 * again[0]
-        renderer.adapt_over_time = False
-        night = renderer.render(target, camera, sky_at(parse_time("02:00")))["exposure"]
+        renderer.exposure.adapt_over_time = False
+        night = renderer.render(target, FrameRequest(camera, sky_at(parse_time("02:00"))))[
+            "exposure"
+        ]
         assert np.isfinite(night) and night > 0
     finally:
         target.release()

@@ -8,6 +8,7 @@ import pytest
 
 from sand_editor.preset import Preset
 from sand_editor.render.camera import Camera, camera_at_distance
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import bundled_preset
 from tests.render.test_renderer import scene_hdr
@@ -42,7 +43,7 @@ def _camera(renderer, distance, pitch):
 
 def _draw(renderer, camera, hours, relief, mode="close"):
     renderer.relief = relief
-    image = renderer.render_to_array(W, H, camera, sky_at(hours), mode)
+    image = renderer.render_to_array(W, H, FrameRequest(camera, sky_at(hours), mode))
     return image, scene_hdr(renderer)[::-1, :, :3]  # rows top-down, as the image's
 
 
@@ -133,7 +134,7 @@ def test_the_far_light_is_the_mean_of_the_drawn_shadows(gl_ctx, gl_clean, name):
         )
         means = {}
         for mode in ("close", "far"):
-            r.render_to_array(W, H, camera, sky_at(17.75), mode)
+            r.render_to_array(W, H, FrameRequest(camera, sky_at(17.75), mode))
             means[mode] = float(scene_hdr(r)[: H // 2, :, :3].mean())  # rows bottom-up
         assert means["close"] == pytest.approx(means["far"], rel=0.07), means
     finally:

@@ -5,6 +5,7 @@ import pytest
 
 from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.modes import MODES
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 
 pytestmark = pytest.mark.gl
@@ -25,7 +26,9 @@ def ground_camera(renderer, distance=4.0, pitch=30.0, heading=0.0):
 
 @pytest.mark.parametrize("mode", MODES)
 def test_every_mode_renders_finite_pixels(sand_renderer, gl_clean, mode):
-    image = sand_renderer.render_to_array(W, H, ground_camera(sand_renderer), sky_at(10.0), mode)
+    image = sand_renderer.render_to_array(
+        W, H, FrameRequest(ground_camera(sand_renderer), sky_at(10.0), mode)
+    )
     assert image.shape == (H, W, 3) and image.dtype == np.uint8
     assert np.isfinite(scene_hdr(sand_renderer)).all()
     assert image.std() > 0 or mode == "blend", "a frame of one flat colour"
@@ -33,8 +36,8 @@ def test_every_mode_renders_finite_pixels(sand_renderer, gl_clean, mode):
 
 def test_a_debug_mode_differs_from_full(sand_renderer, gl_clean):
     camera, sky = ground_camera(sand_renderer), sky_at(10.0)
-    full = sand_renderer.render_to_array(W, H, camera, sky, "full").astype(int)
-    normals = sand_renderer.render_to_array(W, H, camera, sky, "normals").astype(int)
+    full = sand_renderer.render_to_array(W, H, FrameRequest(camera, sky, "full")).astype(int)
+    normals = sand_renderer.render_to_array(W, H, FrameRequest(camera, sky, "normals")).astype(int)
     assert np.abs(full - normals).mean() > 20
     # Debug views are raw values: micro normals of a mostly upward surface are mostly green.
     assert normals[..., 1].mean() > normals[..., 0].mean() + 40
@@ -42,8 +45,8 @@ def test_a_debug_mode_differs_from_full(sand_renderer, gl_clean):
 
 def test_the_sky_is_brighter_at_noon_than_at_midnight(sand_renderer, gl_clean):
     looking_up = Camera.look_at((0.0, 10.0, 0.0), (0.0, 20.0, -10.0), aspect=ASPECT)
-    noon = sand_renderer.render_to_array(W, H, looking_up, sky_at(12.0), "full")
-    midnight = sand_renderer.render_to_array(W, H, looking_up, sky_at(0.0), "full")
+    noon = sand_renderer.render_to_array(W, H, FrameRequest(looking_up, sky_at(12.0), "full"))
+    midnight = sand_renderer.render_to_array(W, H, FrameRequest(looking_up, sky_at(0.0), "full"))
     assert noon.mean() > 2 * midnight.mean()
     assert noon[..., 2].mean() > noon[..., 0].mean(), "a blue day sky"
 
@@ -68,7 +71,7 @@ def test_the_sun_moves_across_the_image_with_the_clock(sand_renderer, gl_clean):
     camera = Camera.look_at(eye, eye + middle, fov_y_deg=70.0, aspect=ASPECT)
     found = []
     for sky in (morning, later):
-        image = sand_renderer.render_to_array(W, H, camera, sky, "full")
+        image = sand_renderer.render_to_array(W, H, FrameRequest(camera, sky, "full"))
         where = brightest_pixel(image)
         assert np.abs(where - projected_pixel(camera, sky.sun_direction)).max() <= 3
         found.append(where)
@@ -78,7 +81,7 @@ def test_the_sun_moves_across_the_image_with_the_clock(sand_renderer, gl_clean):
 @pytest.mark.parametrize("distance, pitch", [(1e-3, 30.0), (1e-3, 1.0), (2.0, 1.0), (1000.0, 20.0)])
 def test_extreme_views_render_finite_images(sand_renderer, gl_clean, distance, pitch):
     camera = ground_camera(sand_renderer, distance, pitch, heading=120.0)
-    image = sand_renderer.render_to_array(W, H, camera, sky_at(15.0), "full")
+    image = sand_renderer.render_to_array(W, H, FrameRequest(camera, sky_at(15.0), "full"))
     hdr = scene_hdr(sand_renderer)
     assert np.isfinite(hdr).all()
     # The lower half of the frame looks at the sand, not through it.
@@ -88,8 +91,12 @@ def test_extreme_views_render_finite_images(sand_renderer, gl_clean, distance, p
 
 def test_the_sphere_appears_on_request(sand_renderer, gl_clean):
     camera, sky = ground_camera(sand_renderer, 3.0, 25.0), sky_at(10.0)
-    without = sand_renderer.render_to_array(W, H, camera, sky, "normals", show_sphere=False)
-    with_sphere = sand_renderer.render_to_array(W, H, camera, sky, "normals", show_sphere=True)
+    without = sand_renderer.render_to_array(
+        W, H, FrameRequest(camera, sky, "normals", show_sphere=False)
+    )
+    with_sphere = sand_renderer.render_to_array(
+        W, H, FrameRequest(camera, sky, "normals", show_sphere=True)
+    )
     changed = np.abs(without.astype(int) - with_sphere.astype(int)).max(axis=-1) > 30
     assert 0.01 < changed.mean() < 0.5
 
@@ -106,7 +113,7 @@ def test_render_draws_only_into_its_viewport_and_restores_the_bound_framebuffer(
         other.use()
         viewport = (W // 2, 0, W // 2, H // 2)
         times = sand_renderer.render(
-            target, ground_camera(sand_renderer), sky_at(10.0), viewport=viewport
+            target, FrameRequest(ground_camera(sand_renderer), sky_at(10.0), viewport=viewport)
         )
         assert ctx.fbo == other
         assert times["exposure"] > 0
@@ -121,3 +128,12 @@ def test_render_draws_only_into_its_viewport_and_restores_the_bound_framebuffer(
             for attachment in fbo.color_attachments:
                 attachment.release()
             fbo.release()
+
+
+def test_a_frame_request_refuses_an_unknown_mode_and_names_the_allowed():
+    camera, sky = Camera.look_at((0.0, 2.0, 3.0), (0.0, 0.0, 0.0)), sky_at(10.0)
+    with pytest.raises(ValueError, match="unknown render mode 'shiny'; allowed: full"):
+        FrameRequest(camera, sky, "shiny")
+    assert FrameRequest(camera, sky, "normals").debug and not FrameRequest(camera, sky).debug
+    # A viewport of floats (a Qt size times a device pixel ratio) is whole pixels.
+    assert FrameRequest(camera, sky, viewport=(0.0, 0, 64.0, 48)).viewport == (0, 0, 64, 48)

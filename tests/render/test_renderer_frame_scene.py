@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from sand_editor.render.camera import Camera, look_at_matrix, perspective
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.render.terrain import sphere_mesh
 from tests.render.conftest import renderer_with_material
@@ -42,7 +43,7 @@ def test_per_eye_choice_rebuilds_terrain_between_eyes_but_a_frame_scene_does_not
         before = renderer.terrain_meshes_built
         for _ in range(2):
             for eye in eyes:
-                renderer.render(target, eye, sky)
+                renderer.render(target, FrameRequest(eye, sky))
         per_eye_builds = renderer.terrain_meshes_built - before
         assert per_eye_builds >= 3
 
@@ -50,7 +51,7 @@ def test_per_eye_choice_rebuilds_terrain_between_eyes_but_a_frame_scene_does_not
         for _ in range(3):
             scene = renderer.prepare_frame(head)
             for eye in eyes:
-                renderer.render(target, eye, sky, scene=scene)
+                renderer.render(target, FrameRequest(eye, sky, scene=scene))
         assert renderer.terrain_meshes_built - before <= 1
     finally:
         for texture in target.color_attachments:
@@ -73,12 +74,12 @@ def test_fixed_objects_are_drawn_in_the_sand_material(gl_ctx):
         eye = np.array([0.0, ground + 1.0, 0.5])
         camera = _camera(eye, (0.0, ground + 0.5, -1.0))
         sky = sky_at(12.0)
-        without = renderer.render_to_array(*SIZE, camera, sky)
+        without = renderer.render_to_array(*SIZE, FrameRequest(camera, sky))
         center = (0.0, ground + 0.5, -1.0)
         renderer.add_object(sphere_mesh(center, 0.3, 24, origin=center), center)
         scene = renderer.prepare_frame(camera)
         assert len(scene.objects) == 1
-        with_sphere = renderer.render_to_array(*SIZE, camera, sky)
+        with_sphere = renderer.render_to_array(*SIZE, FrameRequest(camera, sky))
         changed = np.any(with_sphere != without, axis=-1)
         assert changed[
             SIZE[1] // 2 - 3 : SIZE[1] // 2 + 3, SIZE[0] // 2 - 3 : SIZE[0] // 2 + 3

@@ -13,6 +13,7 @@ import pytest
 
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.render.terrain import sphere_mesh
 from tests.gl_objects import live_gl_objects
@@ -40,8 +41,8 @@ def _frame(renderer, index: int) -> None:
     metered = index % 10 == 0
     renderer.bloom_strength = DEFAULT_BLOOM_STRENGTH if metered else 0.0
     exposure = None if metered else 1.0
-    renderer.render_to_array(*size, camera, sky_at(hours), show_sphere=step % 3 == 0,
-                             exposure=exposure)  # fmt: skip
+    request = FrameRequest(camera, sky_at(hours), show_sphere=step % 3 == 0, exposure=exposure)
+    renderer.render_to_array(*size, request)
 
 
 def test_thousands_of_changing_frames_keep_gl_objects_and_memory_flat(gl_clean):

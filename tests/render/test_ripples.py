@@ -10,6 +10,7 @@ import pytest
 
 from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import bundled_preset
 
@@ -60,7 +61,7 @@ def test_the_ripples_run_across_the_wind(renderer, gl_clean, wind, target):
     camera = camera_at_distance(
         4.0, 90.0, 1.0, lambda x, z: float(terrain.height(x, z)), target_xz=target
     )
-    image = sand_renderer.render_to_array(SIZE, SIZE, camera, sky_at(12.0), "far")
+    image = sand_renderer.render_to_array(SIZE, SIZE, FrameRequest(camera, sky_at(12.0), "far"))
     bearing = _wave_bearing(image)
     off = abs((bearing - wind + 90.0) % 180.0 - 90.0)
     assert off < 20.0, f"wave at {bearing:.0f}°, wind from {wind:.0f}°"

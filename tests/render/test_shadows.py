@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from sand_editor.render.camera import Camera, camera_at_distance
+from sand_editor.render.request import FrameRequest
 from sand_editor.render.shadows import (
     CASCADE_SIZES,
     CASCADES,
@@ -124,7 +125,9 @@ def _pixel(camera: Camera, point) -> tuple[int, int]:
 def _luminance(renderer, camera, sky, shadows, mode="full", sphere=True):
     renderer.shadows = shadows
     try:
-        renderer.render_to_array(W, H, camera, sky, mode, show_sphere=sphere, exposure=1.0)
+        renderer.render_to_array(
+            W, H, FrameRequest(camera, sky, mode, show_sphere=sphere, exposure=1.0)
+        )
     finally:
         renderer.shadows = True
     return scene_hdr(renderer)[::-1, :, :3] @ LUMINANCE
@@ -217,12 +220,14 @@ def test_both_eyes_read_one_drawing_of_the_maps_and_a_still_view_draws_none(
     try:
         before = sand_renderer.shadow_maps_drawn
         for eye in eyes:
-            sand_renderer.render(target, eye, sky, scene=scene, exposure=1.0)
+            sand_renderer.render(target, FrameRequest(eye, sky, scene=scene, exposure=1.0))
         assert sand_renderer.shadow_maps_drawn == before + 1
         for eye in eyes:  # the next frame, nothing moved
-            sand_renderer.render(target, eye, sky, scene=scene, exposure=1.0)
+            sand_renderer.render(target, FrameRequest(eye, sky, scene=scene, exposure=1.0))
         assert sand_renderer.shadow_maps_drawn == before + 1
-        sand_renderer.render(target, eyes[0], sky_at(17.01), scene=scene, exposure=1.0)
+        sand_renderer.render(
+            target, FrameRequest(eyes[0], sky_at(17.01), scene=scene, exposure=1.0)
+        )
         assert sand_renderer.shadow_maps_drawn == before + 2
     finally:
         target.color_attachments[0].release()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sand_editor.render.request import FrameRequest
 from tests.render.conftest import renderer_with_material
 
 pytestmark = pytest.mark.gl
@@ -38,7 +39,7 @@ def test_grazing_sparkles_toward_the_low_sun_are_points_not_blocks(gl_ctx):
         # The light's exposure, not one metered on a frame of glints alone (which would
         # saturate every sparkle to white and hide how each is drawn).
         image = renderer.render_to_array(
-            480, 270, camera, sky, "glints", exposure=light_exposure(sky)
+            480, 270, FrameRequest(camera, sky, "glints", exposure=light_exposure(sky))
         )
         hdr = np.frombuffer(renderer.post.scene_texture.read(), dtype=np.float16)
     assert np.isfinite(hdr).all(), "no NaN or inf in the HDR frame, grazing glints included"
