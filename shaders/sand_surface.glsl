@@ -291,8 +291,10 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
     vec2 centre = vec2(0.5);
     vec4 normals = textureLod(u_normal_moments, centre, u_max_lod);
+    bool copies = u_tile_variation != 0;
+    if (copies) normals = copies_normal_moments(normals);
     return filtered_diffuse_light(kd, normals, s, v, L)
-         + sand_specular(tile_factors(h0, h1), h0, h1, L);
+         + sand_specular(tile_factors(h0, h1, copies), h0, h1, L);
 }
 
 vec3 shade_lambert(SurfacePoint s, Lighting L) {

@@ -7,9 +7,10 @@
 // is shaded exactly as the tile is. A point shows one copy: its nearest vertex's, except in a
 // band along the edges of the vertices' hexagons, where the grains of neighbouring copies lie
 // over one another, each grain whole or not at all (grain_rank). Up close the border between
-// copies runs along grain outlines, never along a line; far away a copy's mean is the tile's,
-// so no border shows. One copy per point keeps the cost of one: the glints, the relief and the
-// footprint's moments are those of the winning copy.
+// copies runs along grain outlines, never along a line; far away the copies together hold the
+// tile's moments symmetrized over the eight (shade_far shades that mixture), so no border shows
+// and close and far agree for any tile, even one grain across. One copy per point keeps the
+// cost of one: the glints, the relief and the footprint's moments are those of the winning copy.
 // The offsets reach past the tile (TILE_COPY_SPREAD tiles), so sparkles, hashed on the ground's
 // texel grid, are drawn anew in every copy too.
 
@@ -20,6 +21,13 @@ const float TILE_COPY_SPACING = 0.85;  // tiles between neighbouring vertices: a
 const float TILE_COPY_BIAS = 3.0;      // a point's weight for its vertex, against a grain's rank
 const float TILE_COPY_SPREAD = 64.0;   // tiles over which the copies' offsets range
 const uint TILE_COPY_KEY = 0x5bd1e995u;
+
+// The tile's normal moments (nx, ny, nx², ny²) as its copies show them together, the eight
+// symmetries equally often: no mean tilt, and the two axes' squares sharing their sum.
+vec4 copies_normal_moments(vec4 n) {
+    float square = 0.5 * (n.z + n.w);
+    return vec4(0.0, 0.0, square, square);
+}
 
 struct TileCopy {
     vec2 tc;    // where the point lies in the copy (tiles)
