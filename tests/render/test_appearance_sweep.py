@@ -219,3 +219,31 @@ def test_black_sand_is_black_and_glints(sweep):
     assert np.median(luminance) < 0.08, "black sand reads dark"
     # ... and its clear volcanic glass shows sparkles far brighter than the sand around them.
     assert (luminance > 10 * np.median(luminance)).mean() > 0.001
+
+
+# A random valid sand whose tile is one lopsided grain (period 1): the copies the tile is laid
+# in turn it eight ways, and the far range must shade that mixture, not the tile as it lies.
+ONE_GRAIN = {
+    "format": "sand-editor-preset",
+    "schema_version": 3,
+    "name": "one-lopsided-grain",
+    "generation": {
+        "layers": 2, "threshold": 0.0, "roundness": 0.0, "seed": 4294967295,
+        "base_color": "#59d823", "colors": ["#48b306", "#89b23c", "#2f77b3", "#a48e63"],
+        "weights": [63, 96, 96, 0], "layer_darkness": 0.734, "jitter": 0.683, "period": 1,
+    },
+    "shading": {
+        "facet_roughness": 0.01, "facet_size": 1000.0, "clear_grains": 0.484,
+        "grain_ior": 1.97, "sss": 10.0, "scattering": 0.53, "absorption": 5.2,
+        "transmission": 1.0, "transmission_roughness": 0.0, "ripple_strength": 1.0,
+        "wind_direction": 0.0, "detail_strength": 0.0, "sigmoid_a": 100.0, "sigmoid_b": -100.0,
+        "uv_scale": 10000.0,
+    },
+}  # fmt: skip
+
+
+def test_a_one_grain_tile_laid_in_turned_copies_is_the_same_light_far_away(sweep):
+    rows = sweep.measure(Preset.from_dict(ONE_GRAIN), (0.3, 10.0), ("low",))
+    for row in rows:
+        # As the tile lies (unsymmetrized) its far light was 0.856 and 0.895 of the close's.
+        assert abs(row["close_over_far"] - 1.0) <= 0.05, row
