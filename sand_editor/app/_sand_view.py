@@ -291,7 +291,7 @@ class SandView(QOpenGLWidget):
             heading_deg=self.heading_deg,
         )
 
-    def _render(self, target, camera, viewport, exposure=None) -> dict:
+    def _render(self, target, camera, viewport, exposure=None, moving=False) -> dict:
         return self.renderer.render(
             target,
             FrameRequest(
@@ -301,6 +301,7 @@ class SandView(QOpenGLWidget):
                 viewport=viewport,
                 exposure=self.exposure if exposure is None else exposure,
                 show_sphere=self.show_sphere,
+                moving=moving,
             ),
         )
 
@@ -308,7 +309,8 @@ class SandView(QOpenGLWidget):
         scale = self.moving_scale
         low = (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
         start = time.perf_counter()
-        timings = self._render(self.gl.target("moving", *low), camera, (0, 0, *low))
+        target = self.gl.target("moving", *low)
+        timings = self._render(target, camera, (0, 0, *low), moving=self._moving)
         self._band_exposure = timings["exposure"]  # metered band by band, each would differ
         finish_without_gil()
         self._pixel_ms = (time.perf_counter() - start) * 1e3 / (low[0] * low[1])

@@ -18,6 +18,11 @@ MODE_HELP = {
 }
 
 
+# The modes that blend the close and the far range by distance: the only ones whose far-only
+# program variant draws anything (``sand_covers`` in shaders/sand_surface.glsl).
+BLENDED_MODES = frozenset({"full", "reference-look"})
+
+
 def check_mode(mode: str) -> str:
     if mode not in MODES:
         raise ValueError(f"unknown render mode {mode!r}; allowed: {', '.join(MODES)}")

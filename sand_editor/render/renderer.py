@@ -21,7 +21,7 @@ from sand_editor.gl import (
 from sand_editor.render.camera import Camera
 from sand_editor.render.exposure import ExposureControl
 from sand_editor.render.material import surface_defines
-from sand_editor.render.modes import mode_index
+from sand_editor.render.modes import BLENDED_MODES, mode_index
 from sand_editor.render.post import DEFAULT_BLOOM_STRENGTH, PostChain
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.scene import FrameScene, SandMesh, SceneMeshes
@@ -53,6 +53,9 @@ class SandRenderer:
         self.tile_variation = True  # the grain tile laid without a repeat (tile_variation.glsl)
         self.sharp_ripples = True  # ripples filtered along each pixel's footprint (sand_far.glsl)
         self.shadows = True  # the sun and the moon cast shadows (render/shadows.py)
+        # Each surface variant draws only the rings it can shade (off: both draw everything,
+        # which the suite compares pixel for pixel).
+        self.split_ranges = True
         self.exposure = ExposureControl()
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
         # shades what lies within the material's close range, the far one only the far term.
@@ -118,7 +121,9 @@ class SandRenderer:
         if scene is None:
             scene = self.prepare_frame(camera, request.show_sphere)
         hdr_target = self.post.scene_framebuffer
-        self._shadow_frame = self._shadow_maps(scene, camera, sky, debug, viewport[2:])
+        self._shadow_frame = self._shadow_maps(
+            scene, camera, sky, debug, viewport[2:], request.moving
+        )
         times["shadows_ms"] = _lap(start)
 
         with drawing_into(ctx, hdr_target):
@@ -130,7 +135,7 @@ class SandRenderer:
             with render_state(ctx, moderngl.DEPTH_TEST):
                 self._prepare_surface(camera, sky, mode)
                 for mesh in (scene.terrain, *scene.objects):
-                    self._draw(mesh, camera)
+                    self._draw(mesh, camera, mode in BLENDED_MODES)
                 if request.extra is not None:
                     request.extra(camera, sky, SceneShadows(self._shadows, self._shadow_frame))
             times["surface_ms"] = _lap(start) - times["shadows_ms"] - times["sky_ms"]
@@ -186,7 +191,9 @@ class SandRenderer:
         with render_state(self.ctx):
             self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
 
-    def _shadow_maps(self, scene: FrameScene, camera: Camera, sky: SkyState, debug: bool, size):
+    def _shadow_maps(
+        self, scene: FrameScene, camera: Camera, sky: SkyState, debug: bool, size, moving: bool
+    ):
         """The frame's shadow maps (drawn once for the frame's head; None when off)."""
         if not self.shadows or debug:
             self._shadow_scene = None
@@ -201,12 +208,17 @@ class SandRenderer:
         # Anything in the scene stands at most this far above the lowest ground in view.
         rise = max(mesh.top for mesh in meshes) + self.terrain.height_bound
         clearance = self.terrain.clearance(head.eye)
-        return self._shadows.update(meshes, head, sky, clearance, rise, size)
+        return self._shadows.update(meshes, head, sky, clearance, rise, size, moving)
 
     @property
     def shadow_maps_drawn(self) -> int:
         """How many frames drew their shadow maps (the others kept the last ones)."""
         return self._shadows.maps_drawn
+
+    @property
+    def shadow_cascades_drawn(self) -> int:
+        """How many cascade maps were drawn, over all frames."""
+        return self._shadows.cascades_drawn
 
     def _prepare_surface(self, camera: Camera, sky: SkyState, mode: str) -> None:
         for prog in self._surfaces:
@@ -231,18 +243,37 @@ class SandRenderer:
             set_uniform(prog, name, value)
         self._shadows.bind(prog, self._shadow_frame)
 
-    def _draw(self, mesh: SandMesh, camera: Camera) -> None:
+    def _draw(self, mesh: SandMesh, camera: Camera, blended: bool) -> None:
         # Vertices are offsets from the mesh origin, and so is the eye in this matrix: small
         # numbers that keep their precision in float32 anywhere in the desert.
         view_projection = camera.projection.astype(np.float64) @ camera.view_relative_to(
             mesh.origin
         )
         self._shadows.bind_mesh(self._surfaces, self._shadow_frame, mesh.origin)
-        for prog, vao in zip(self._surfaces, mesh.vaos, strict=True):
+        if self.split_ranges:
+            runs = self._range_runs(mesh, camera, blended)
+        else:
+            runs = ((0, mesh.indices), (0, mesh.indices))
+        for prog, vao, (first, count) in zip(self._surfaces, mesh.vaos, runs, strict=True):
+            if count == 0:
+                continue
             set_matrix(prog, "u_view_projection", view_projection)
             set_uniform(prog, "u_origin", _vec(mesh.origin))
             set_uniform(prog, "u_no_ripples", mesh.no_ripples)
-            vao.render(moderngl.TRIANGLES)
+            vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+
+    def _range_runs(self, mesh: SandMesh, camera: Camera, blended: bool):
+        """What of ``mesh`` each surface variant draws, (first index, count) for the near and
+        the far one: the far variant shades only beyond the close limit and only in the
+        blended modes (``sand_covers`` in sand_surface.glsl), so in other modes it draws
+        nothing; of a mesh of rings, the near variant draws the rings that come within the
+        close limit of the eye and the far one those that reach beyond it."""
+        whole = (0, mesh.indices)
+        if not blended:
+            return whole, (0, 0)
+        if mesh.rings is None or self.material is None:
+            return whole, whole
+        return mesh.ring_ranges(camera.eye, self.material.close_limit)
 
     # ---- lifetime ---------------------------------------------------------------------------
 

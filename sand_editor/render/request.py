@@ -24,7 +24,10 @@ class FrameRequest:
     setting). ``extra(camera, sky, shadows)`` draws more (not sand) into the scene,
     depth-tested, before it is exposed, lit as the sand is (``shadows``: the frame's
     ``SceneShadows``); with ``depth_out`` the scene's depth goes into the target's depth buffer
-    too. A mode not in ``render.modes`` raises ``ValueError``.
+    too. ``moving``: a frame of a view in motion (the editor's reduced frames while it orbits,
+    edits or plays the clock), whose shadow maps, where the view alone moved, are drawn
+    again one a frame, the oldest first (``SunShadows.update``); a still
+    frame draws every map it needs. A mode not in ``render.modes`` raises ``ValueError``.
     """
 
     camera: Camera
@@ -36,6 +39,7 @@ class FrameRequest:
     scene: FrameScene | None = None
     extra: Callable | None = None
     depth_out: bool = False
+    moving: bool = False
 
     def __post_init__(self) -> None:
         check_mode(self.mode)

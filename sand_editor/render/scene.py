@@ -41,6 +41,11 @@ class SandMesh:
         self.rings = mesh.get("rings")
         self.no_ripples = 0.0 if mesh.get("ripples") else 1.0  # wind ripples: the dunes only
         self.ring_center = mesh.get("ring_center")
+        if self.rings is not None:
+            # Each band's lowest and highest point (world y): between two rings of vertices.
+            heights = mesh["position"][:, 1].reshape(len(self.rings), -1) + self.origin[1]
+            low, high = heights.min(axis=1), heights.max(axis=1)
+            self._band_heights = (np.minimum(low[:-1], low[1:]), np.maximum(high[:-1], high[1:]))
         # World corners of an object's box (None for the ground, which reaches the horizon).
         self.bounds = None if self.rings is not None else _bounds(mesh["position"], self.origin)
         self.buffer = ctx.buffer(vertices.astype(np.float32).tobytes())
@@ -54,6 +59,24 @@ class SandMesh:
         self.depth_vao = vao(depth_program, (_POSITION_FORMAT, "a_position"))
         self.indices = len(mesh["index"])
         self.triangles = self.indices // 3
+
+    def ring_ranges(self, eye, distance_m: float):
+        """For a mesh of rings (triangles ring after ring), the (first index, count) runs of
+        the rings that come within ``distance_m`` of ``eye`` and of those that reach beyond
+        it."""
+        rings = self.rings
+        per_band = self.indices // (len(rings) - 1)
+        eye = np.asarray(eye, dtype=np.float64)
+        off = math.hypot(eye[0] - self.ring_center[0], eye[2] - self.ring_center[1])
+        # Band k spans radii rings[k]..rings[k+1]: its nearest point is at least
+        # rings[k] − off away, its farthest at most √((rings[k+1] + off)² + vertical²).
+        near_bands = int(np.searchsorted(rings[:-1], distance_m + off, side="right"))
+        low, high = self._band_heights
+        vertical = np.maximum(np.abs(eye[1] - low), np.abs(eye[1] - high))
+        beyond = np.flatnonzero(np.hypot(rings[1:] + off, vertical) > distance_m)
+        first_far = int(beyond[0]) if beyond.size else len(rings) - 1
+        bands = len(rings) - 1
+        return (0, near_bands * per_band), (first_far * per_band, (bands - first_far) * per_band)
 
     def release(self) -> None:
         for obj in (*self.vaos, self.depth_vao, self.buffer, self.index):

@@ -203,7 +203,7 @@ class ShadowFrame:
 
 class SunShadows:
     """The shadow maps and their drawing. ``maps_drawn`` counts the frames whose maps were
-    drawn (not taken over unchanged from the frame before)."""
+    drawn (not taken over unchanged from the frame before), ``cascades_drawn`` the maps."""
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
@@ -215,6 +215,7 @@ class SunShadows:
         self._drawn: dict[int, tuple[Cascade, tuple, int]] = {}  # cascade, meshes, frame
         self._frames = 0
         self.maps_drawn = 0
+        self.cascades_drawn = 0
 
     def _resize(self, size: int) -> None:
         """A 2 × 2 atlas of ``size``² cascades (kept while the size stays)."""
@@ -235,12 +236,17 @@ class SunShadows:
                 obj.release()
         self._framebuffer = self.depth = None
 
-    def update(self, meshes, head: Camera, sky, clearance: float, rise: float, frame_size):
+    def update(
+        self, meshes, head: Camera, sky, clearance: float, rise: float, frame_size, moving=False
+    ):
         """The ``ShadowFrame`` of a frame drawing ``meshes`` (each with ``origin``,
         ``serial``, ``depth_vao``, ``indices``, ``bounds`` (world (min, max) corners, or None
         for the ground) and, for a mesh of rings, ``rings`` and ``ring_center``) in a frame of
         ``frame_size`` pixels; each cascade's map is drawn again only when what it shows
-        changed. None when no light shines."""
+        changed. None when no light shines. While ``moving``, a map the view alone moved off
+        (same meshes, the light within MAX_LIGHT_LAG_DEG) waits its turn like one the light
+        moved off: a point its map no longer holds takes the next cascade's, or the light
+        unshadowed, until then."""
         chosen = shadow_light(sky)
         if chosen is None:
             return None
@@ -265,7 +271,7 @@ class SunShadows:
             old = drawn[0]
             if old.shows_the_same(cascade):
                 continue
-            kept = old.radius == cascade.radius and old.covers(cascade.corners)
+            kept = moving or (old.radius == cascade.radius and old.covers(cascade.corners))
             if kept and old.light_angle_to(direction) <= MAX_LIGHT_LAG_DEG:
                 waiting.append(index)
             else:
@@ -277,6 +283,7 @@ class SunShadows:
             for index in redraw:
                 self._drawn[index] = (fitted[index], serials, self._frames)
             self.maps_drawn += 1
+            self.cascades_drawn += len(redraw)
         # Each cascade as its map was drawn: lookups use the matrices the map holds.
         return ShadowFrame(name, tuple(self._drawn[i][0] for i in range(len(fitted))))
 

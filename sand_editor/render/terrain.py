@@ -166,6 +166,7 @@ class DuneTerrain:
         # Triangles come ring by ring: a band of rings is one run of the index buffer.
         mesh["rings"] = radii
         mesh["ring_center"] = np.asarray(center_xz, dtype=np.float64)
+        mesh["segments"] = segments
         mesh["ripples"] = True  # the wind's ripples lie on the dunes, not on other objects
         return mesh
 
