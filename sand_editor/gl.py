@@ -33,19 +33,25 @@ def standalone_context() -> moderngl.Context:
     """
     ctx = getattr(_local, "ctx", None)
     if ctx is None:
-        try:
-            ctx = moderngl.create_standalone_context(require=REQUIRED_GL_VERSION, backend="egl")
-        except Exception as exc:  # moderngl raises bare Exceptions for missing drivers
-            raise GLUnavailableError(
-                "cannot create a headless OpenGL 3.3 context through EGL: "
-                f"{exc}. On Debian install libegl1 and libgl1-mesa-dri."
-            ) from exc
+        ctx = headless_context()
         _local.ctx = ctx
         _local.egl_handle = _current_egl_context()
     elif _current_egl_context() != _local.egl_handle:
         # A window's context was current since (see standalone_current): ours comes back.
         ctx.__enter__()
     return ctx
+
+
+def headless_context() -> moderngl.Context:
+    """A new headless (EGL) context, current on this thread, owned by the caller (who releases
+    it); ``standalone_context`` keeps one per thread instead."""
+    try:
+        return moderngl.create_standalone_context(require=REQUIRED_GL_VERSION, backend="egl")
+    except Exception as exc:  # moderngl raises bare Exceptions for missing drivers
+        raise GLUnavailableError(
+            "cannot create a headless OpenGL 3.3 context through EGL: "
+            f"{exc}. On Debian install libegl1 and libgl1-mesa-dri."
+        ) from exc
 
 
 @contextmanager

@@ -1,53 +1,39 @@
-"""The 3D view's GL widget: the desert drawn by the one renderer (``sand_editor.render``) into a
-QOpenGLWidget, at reduced resolution while anything changes and refined in bands at rest."""
+"""The 3D view's widget: the desert drawn by the one renderer (``sand_editor.render``) on a
+thread of its own (``_render_worker``), at reduced resolution while anything changes and refined
+in bands at rest; the widget paints what the thread sends back and never waits for it."""
 
 from __future__ import annotations
 
-import math
-import time
-
-import moderngl
-import shiboken6
-from PySide6.QtCore import QPointF, Qt, QTimer, Signal
-from PySide6.QtGui import QOffscreenSurface, QOpenGLContext
-from PySide6.QtOpenGLWidgets import QOpenGLWidget
+import numpy as np
+from PySide6.QtCore import QPointF, QRectF, Qt, QTimer, Signal
+from PySide6.QtGui import QColor, QImage, QPainter
 from PySide6.QtWidgets import QWidget
 
-from sand_editor.app._gl_resources import GLResources, surface_format
 from sand_editor.app._refinement import (
     FRAME_BUDGET_MS,
     MIN_BAND_ROWS,
     SETTLE_MS,
     adapted_scale,
-    band_camera,
 )
+from sand_editor.app._render_worker import FrameResult, RenderJob, RenderWorker, ViewParams
 from sand_editor.generator import SandTextures
-from sand_editor.gl import (
-    REQUIRED_GL_VERSION,
-    draw_fullscreen,
-    drawing_into,
-    finish_without_gil,
-    fullscreen_program,
-    release_standalone_context,
-)
 from sand_editor.preset import Preset
-from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.renderer import SandRenderer
-from sand_editor.render.request import FrameRequest
-from sand_editor.render.sky import sky_at
 
 WHEEL_FACTOR = 1.15
 DEG_PER_PIXEL = 0.3
+_VIEW_FIELDS = frozenset(ViewParams.__dataclass_fields__)
 
 
-class SandView(QOpenGLWidget):
-    """Draws one frame on demand; all GL work happens with this widget's context current.
+class SandView(QWidget):
+    """Shows the frames its drawing thread sends; sends the next job when one comes back.
 
-    The grains come from the editor's one generation (``set_grains``); the view uploads them
-    the next time it draws, so a hidden view does no work for an edit. While the camera, the
-    clock or the preset is changing, frames are drawn at reduced resolution (``scale``), and
-    ``SETTLE_MS`` after the last change once more at full resolution.
+    The grains come from the editor's one generation (``set_grains``); the view hands them to
+    the thread with its next job, so a hidden view does no work for an edit. While the camera,
+    the clock or the preset is changing, frames are drawn at reduced resolution (``scale``), and
+    ``SETTLE_MS`` after the last change once more at full resolution, in bands of rows: a change
+    waits at most for the band in hand.
 
     Signals
     -------
@@ -56,10 +42,11 @@ class SandView(QOpenGLWidget):
     zoomed(float)
         A wheel turn: the factor to multiply the distance by.
     rendered(dict)
-        A frame was drawn: the renderer's timings plus ``total_ms`` (CPU and GPU, the frame
-        finished) and ``scale`` (the fraction of the widget's pixels along each side).
+        A frame was drawn: the renderer's timings plus ``total_ms`` (the thread's time for it,
+        the frame finished), ``scale`` (the fraction of the widget's pixels along each side) and
+        ``refined`` (the share of the full-resolution frame done).
     failed(str)
-        The view cannot draw (no suitable context, or initialisation raised).
+        The view cannot draw (no suitable context, or drawing raised).
     """
 
     orbited = Signal(float, float)
@@ -69,42 +56,35 @@ class SandView(QOpenGLWidget):
 
     def __init__(self, preset: Preset, parent: QWidget | None = None):
         super().__init__(parent)
-        self.setFormat(surface_format())
         self.setMinimumSize(160, 100)
-        self.gl = GLResources()
+        self.setAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent)
         self.error: str | None = None
         self.last_timings: dict | None = None
         self.frames = 0
-        self.full_frames = 0  # frames drawn at full resolution
-        self.grain_uploads = 0  # tiles uploaded into the material
-        self.distance_m = 1.0
-        self.pitch_deg = 45.0
-        self.heading_deg = 0.0
-        self.time_hours = 10.0
-        self.mode = "full"
-        self.show_sphere = False
-        self.exposure: float | None = None  # None: metered and adapted, as an eye does
-        self._band_exposure: float | None = None
+        self.full_frames = 0  # frames completed at full resolution
+        self._view = ViewParams()
         self.moving_scale = 0.5
         self._preset = preset
         self._pending_grains: SandTextures | None = None
-        self._material_stale = True
         self._moving = False
-        self._refined_rows = 0  # rows of the full-resolution frame drawn since the last change
-        self._refined_size = (0, 0)
+        self._serial = 0  # counts changes: a band drawn before the last one is dropped
+        self._in_flight: RenderJob | None = None
+        self._wanted = False  # a frame is due once the thread is free (and the view shown)
+        self._moving_pixels: np.ndarray | None = None  # the reduced frame, top-down
+        self._moving_image: QImage | None = None
+        self._full = np.zeros((0, 0, 4), np.uint8)  # the full-resolution frame, top-down
+        self._full_image: QImage | None = None
+        self._refined_rows = 0  # rows of it (from the bottom) drawn since the last change
+        self._band_exposure: float | None = None
         self._pixel_ms = 0.002  # what a pixel costs, measured on every frame
         self._refine_ms, self._bands = 0.0, 0
-        self._frame_end = 0.0
-        self._frame_ms = 0.0
-        self._frame_timer = QTimer(self, singleShot=True)
-        self._frame_timer.timeout.connect(self.update)
         self._settle = QTimer(self, singleShot=True, interval=SETTLE_MS)
         self._settle.timeout.connect(self._settled)
         self._drag_from: QPointF | None = None
-
-    @property
-    def ctx(self) -> moderngl.Context | None:
-        return self.gl.ctx
+        self.gl = RenderWorker(self._frame_done)
+        # The thread and its GL objects end with the widget (the worker outlives it here).
+        worker = self.gl
+        self.destroyed.connect(lambda *_: worker.stop())
 
     @property
     def material(self) -> SandMaterial | None:
@@ -115,6 +95,10 @@ class SandView(QOpenGLWidget):
         return self.gl.renderer
 
     @property
+    def grain_uploads(self) -> int:
+        return self.gl.grain_uploads
+
+    @property
     def grains_generation(self):
         """The generation parameters of the grains the view draws with (None before any)."""
         material = self.gl.material
@@ -122,261 +106,180 @@ class SandView(QOpenGLWidget):
 
     @property
     def at_rest(self) -> bool:
-        """Nothing is changing and the full-resolution frame is complete."""
+        """Nothing is changing and the full-resolution frame of the current view is shown."""
         return (
             not self._moving
+            and not self._wanted
+            and self._in_flight is None
             and self.last_timings is not None
             and self.last_timings["refined"] == 1.0
         )
+
+    def call_in_context(self, function):
+        """``function(ctx)`` run on the drawing thread with its context current; its value."""
+        return self.gl.call(function)
+
+    def gl_error(self) -> str:
+        """The (then cleared) error state of the drawing thread's context."""
+        return self.call_in_context(lambda ctx: ctx.error)
 
     # -- state -----------------------------------------------------------------------------------
 
     def set_view(self, **values) -> None:
         """Set distance_m, pitch_deg, heading_deg, time_hours, mode, show_sphere or exposure."""
-        for name, value in values.items():
-            if not hasattr(self, name):
-                raise AttributeError(name)
-            setattr(self, name, value)
+        unknown = set(values) - _VIEW_FIELDS
+        if unknown:
+            raise AttributeError(", ".join(sorted(unknown)))
+        self._view = ViewParams(**{**self._view.__dict__, **values})
         self.changing()
 
     def set_preset(self, preset: Preset) -> None:
         shading_changed = preset.shading != self._preset.shading
         self._preset = preset
-        self._material_stale = True
         if shading_changed or preset.generation == self.grains_generation:
             self.changing()
         # else only the generation changed: the view redraws when its tile arrives, never
         # before with the grains it has.
 
     def set_grains(self, textures: SandTextures) -> None:
-        """A full tile from the editor's generation (it names its own), uploaded when next
-        drawn."""
+        """A full tile from the editor's generation (it names its own), handed to the thread
+        with the next job."""
         self._pending_grains = textures
-        self._material_stale = True
         self.changing()
 
     def changing(self) -> None:
         """Something in view changes: draw at reduced resolution until it settles."""
         self._moving = True
+        self._serial += 1
         self._refined_rows = 0
         self._settle.start()
         self._request_frame()
-
-    def _request_frame(self) -> None:
-        # After a frame the event loop gets at least as long again to itself: input and
-        # timers wait for at most one frame, never for a queue of them.
-        wait_ms = (self._frame_end + self._frame_ms / 1e3 - time.perf_counter()) * 1e3
-        if wait_ms <= 0:
-            self.update()
-        elif not self._frame_timer.isActive():
-            self._frame_timer.start(math.ceil(wait_ms))
 
     def _settled(self) -> None:
         self._moving = False
         self._request_frame()
 
     def _fail(self, message: str) -> None:
-        self.error = message
-        self.failed.emit(message)
+        if self.error is None:
+            self.error = message
+            self.failed.emit(message)
 
-    # -- GL ----------------------------------------------------------------------------------------
+    # -- jobs --------------------------------------------------------------------------------------
 
-    def initializeGL(self) -> None:
-        fmt = self.context().format()
-        version = fmt.majorVersion() * 100 + fmt.minorVersion() * 10
-        if version < REQUIRED_GL_VERSION:
-            self._fail(
-                f"The 3D view needs OpenGL 3.3; this display offers "
-                f"{fmt.majorVersion()}.{fmt.minorVersion()}."
-            )
-            return
-        release_standalone_context()  # Qt's context and an EGL one cannot both be current
-        gl = self.gl
-        try:
-            gl.ctx = moderngl.create_context()
-            gl.renderer = SandRenderer(gl.ctx)
-            gl.renderer.exposure.adapt_over_time = True
-            gl.upscale = fullscreen_program(gl.ctx, "upscale.frag")
-        except Exception as error:
-            self._fail(f"Cannot start the 3D view: {error}")
-            return
-        # Where the context must be made current while the widget is being destroyed. Owned
-        # by the widget, so it outlives the context's destruction (the widget's children go
-        # last), whatever Python collects first at exit.
-        gl.surface = QOffscreenSurface(None, self)
-        gl.surface.setFormat(self.context().format())
-        gl.surface.create()
-        # Not a slot of the widget, nor using the context's wrapper: this runs from their
-        # destructors, when PySide already counts both as deleted; a fresh wrapper of the
-        # context (still valid in C++ until the signal returns) can make it current.
-        address = shiboken6.getCppPointer(self.context())[0]
-        self.context().aboutToBeDestroyed.connect(
-            lambda: gl.release(shiboken6.wrapInstance(address, QOpenGLContext))
-        )
-
-    def _sync_material(self) -> None:
-        """Upload a new tile, or follow a shading change, in the material (context current)."""
-        gl = self.gl
-        # Qt leaves its own state behind (blending, for one): the material's passes start
-        # from none.
-        gl.ctx.enable_only(moderngl.NOTHING)
-        if self._pending_grains is not None:
-            textures, self._pending_grains = self._pending_grains, None
-            if gl.material is None or gl.material.texture_size != textures.size:
-                if gl.material is not None:
-                    gl.material.release()
-                gl.material = SandMaterial(gl.ctx, textures.size)
-                gl.renderer.set_material(gl.material)
-            gl.material.update(self._preset, grains=textures)
-            self.grain_uploads += 1
-        elif self._material_stale and gl.material is not None:
-            if self._preset.generation != gl.material.grains_generation:
-                return  # the view never makes grains: the edit shows with its tile
-            gl.material.update(self._preset)
-        self._material_stale = False
-
-    def paintGL(self) -> None:
-        if self.renderer is None or self.error is not None:
-            return
-        start = time.perf_counter()
-        try:
-            self._sync_material()
-        except Exception as error:  # a driver error is shown, not fatal to the editor
-            self._fail(f"3D view: {error}")
-            return
-        if self.material is None:
-            return  # the first tile is still being generated
+    def _size(self) -> tuple[int, int]:
         ratio = self.devicePixelRatioF()
-        size = (max(1, round(self.width() * ratio)), max(1, round(self.height() * ratio)))
-        try:
-            screen = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
-            camera = self._camera(size)
-            timings = None
-            fresh = self._refined_rows == 0 or size != self._refined_size
-            if self._moving or fresh or "moving" not in self.gl.targets:
-                timings = self._draw_moving(camera, size)
-                self._refined_rows, self._refined_size = 0, size
-            if not self._moving:
-                timings = self._refine(camera, size) or timings
-            self._show(screen, size)
-            # Qt's framebuffer stays bound after the paint, as on entry: Qt discards its
-            # depth and stencil after paintGL, an error on any other framebuffer.
-            screen.use()
-            # The frame's whole cost, not only the CPU's share of it; the generator's thread
-            # queues its next band meanwhile.
-            finish_without_gil()
-        except Exception as error:
-            self._fail(f"3D view: {error}")
+        return (max(1, round(self.width() * ratio)), max(1, round(self.height() * ratio)))
+
+    def _request_frame(self) -> None:
+        self._wanted = True
+        if self._in_flight is None and self.isVisible() and self.error is None:
+            self._send_next()
+
+    def _send_next(self) -> None:
+        """Send the job the view needs now: a moving frame while anything changes (or before
+        any), else the next band of the full-resolution frame; nothing once it is complete."""
+        self._wanted = False
+        size = self._size()
+        if self._full.shape[:2] != size[::-1]:
+            self._full = np.zeros((size[1], size[0], 4), np.uint8)
+            self._full_image = _image_of(self._full)
+            self._refined_rows = 0
+        moving = self._moving or self._moving_image is None or self._pending_grains is not None
+        if not moving and self._refined_rows >= size[1]:
+            return  # the full-resolution frame is complete
+        grains, self._pending_grains = self._pending_grains, None
+        common = dict(view=self._view, size=size, preset=self._preset, grains=grains,
+                      serial=self._serial)  # fmt: skip
+        if moving:
+            job = RenderJob(scale=self.moving_scale, moving=self._moving, **common)
+        else:
+            first = self._refined_rows
+            if first == 0:
+                self._refine_ms, self._bands = 0.0, 0
+            rows = int(FRAME_BUDGET_MS / max(self._pixel_ms * size[0], 1e-6))
+            rows = min(max(rows, MIN_BAND_ROWS), size[1] - first)
+            job = RenderJob(rows=(first, first + rows), exposure=self._band_exposure, **common)
+        self._in_flight = job
+        self.gl.submit(job)
+
+    def _frame_done(self, result: FrameResult) -> None:
+        self._in_flight = None
+        if result.error is not None:
+            self._fail(result.error)
             return
-        if timings is None:
-            return  # an expose: the finished frame shown again
-        self._frame_end = time.perf_counter()
-        self._frame_ms = timings["total_ms"] = (self._frame_end - start) * 1e3
-        if timings["scale"] < 1.0:
-            self._adapt_scale(timings["total_ms"], timings["scale"])
+        if result.pixels is None:  # no grains yet: their arrival asks again
+            if self._wanted:
+                self._request_frame()
+            return
+        self._take(result)
+        if self._wanted or (not self._moving and self._refined_rows < self._full.shape[0]):
+            self._request_frame()
+
+    def _take(self, result: FrameResult) -> None:
+        job, timings, pixels = result.job, dict(result.timings), result.pixels
+        self._pixel_ms = timings["total_ms"] / max(timings["pixels"], 1)
+        if job.rows is None:
+            self._moving_pixels = pixels
+            self._moving_image = _image_of(pixels)
+            self._band_exposure = timings["exposure"]  # metered band by band, each would differ
+            self.moving_scale = adapted_scale(timings["total_ms"], job.scale)
+            timings.update(scale=job.scale, refined=0.0)
+        else:
+            if job.serial != self._serial or job.size[::-1] != self._full.shape[:2]:
+                return  # drawn for a view that has changed since
+            first, end = job.rows
+            height = self._full.shape[0]
+            self._full[height - end : height - first] = pixels
+            self._refined_rows = end
+            self._refine_ms += timings["total_ms"]
+            self._bands += 1
+            timings.update(
+                scale=1.0,
+                refined=end / height,
+                refine_ms=self._refine_ms,
+                bands=self._bands,
+            )
         self.frames += 1
         self.full_frames += timings["refined"] == 1.0
         self.last_timings = timings
+        self.update()
         self.rendered.emit(timings)
-        if timings["refined"] < 1.0 and not self._moving:
-            self._request_frame()  # the next band
 
-    def _camera(self, size: tuple[int, int]):
-        terrain = self.renderer.terrain
-        return camera_at_distance(
-            self.distance_m,
-            self.pitch_deg,
-            size[0] / size[1],
-            ground_height=lambda x, z: float(terrain.height(x, z)),
-            heading_deg=self.heading_deg,
-        )
+    # -- Qt ----------------------------------------------------------------------------------------
 
-    def _render(self, target, camera, viewport, exposure=None, moving=False) -> dict:
-        return self.renderer.render(
-            target,
-            FrameRequest(
-                camera,
-                sky_at(self.time_hours),
-                self.mode,
-                viewport=viewport,
-                exposure=self.exposure if exposure is None else exposure,
-                show_sphere=self.show_sphere,
-                moving=moving,
-            ),
-        )
+    def paintEvent(self, event) -> None:
+        painter = QPainter(self)
+        try:
+            if self._moving_image is None:
+                painter.fillRect(self.rect(), QColor(0, 0, 0))
+                return
+            painter.setRenderHint(QPainter.RenderHint.SmoothPixmapTransform)
+            painter.drawImage(QRectF(self.rect()), self._moving_image)
+            rows = self._refined_rows if not self._moving else 0
+            if rows > 0 and self._full_image is not None:
+                height, width = self._full.shape[:2]
+                ratio = width / max(self.width(), 1)
+                source = QRectF(0, height - rows, width, rows)
+                target = QRectF(0, (height - rows) / ratio, width / ratio, rows / ratio)
+                painter.drawImage(target, self._full_image, source)
+        finally:
+            painter.end()
 
-    def _draw_moving(self, camera, size: tuple[int, int]) -> dict:
-        scale = self.moving_scale
-        low = (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
-        start = time.perf_counter()
-        target = self.gl.target("moving", *low)
-        timings = self._render(target, camera, (0, 0, *low), moving=self._moving)
-        self._band_exposure = timings["exposure"]  # metered band by band, each would differ
-        finish_without_gil()
-        self._pixel_ms = (time.perf_counter() - start) * 1e3 / (low[0] * low[1])
-        timings.update(scale=scale, refined=0.0)
-        return timings
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if self._wanted:
+            self._request_frame()
 
-    def _refine(self, camera, size: tuple[int, int]) -> dict | None:
-        """Draw the next band of rows of the full-resolution frame; None when it is complete.
-
-        Each band is a frame of its own through the matching slice of the camera's frustum,
-        sized to take about ``FRAME_BUDGET_MS``, so the event loop runs between bands.
-        """
-        width, height = size
-        full = self.gl.target("full", width, height)
-        if self._refined_rows >= height:
-            return None
-        rows = int(FRAME_BUDGET_MS / max(self._pixel_ms * width, 1e-6))
-        rows = min(max(rows, MIN_BAND_ROWS), height - self._refined_rows)
-        first = self._refined_rows
-        if first == 0:
-            self._refine_ms, self._bands = 0.0, 0
-        band = band_camera(camera, first, first + rows, height)
-        start = time.perf_counter()
-        timings = self._render(full, band, (0, first, width, rows), self._band_exposure)
-        finish_without_gil()
-        self._pixel_ms = (time.perf_counter() - start) * 1e3 / (width * rows)
-        self._refined_rows = first + rows
-        self._refine_ms += (time.perf_counter() - start) * 1e3
-        self._bands += 1
-        timings.update(
-            scale=1.0,
-            refined=self._refined_rows / height,
-            refine_ms=self._refine_ms,
-            bands=self._bands,
-        )
-        return timings
-
-    def _show(self, screen, size: tuple[int, int]) -> None:
-        """The reduced frame scaled up, with the rows refined so far over it."""
-        moving = self.gl.targets.get("moving")
-        if moving is not None:
-            self._draw_target(moving, screen, size, size[1])
-        if not self._moving and self._refined_rows > 0 and "full" in self.gl.targets:
-            self._draw_target(self.gl.targets["full"], screen, size, self._refined_rows)
-
-    def _draw_target(self, source, screen, size: tuple[int, int], rows: int) -> None:
-        program = self.gl.upscale
-        source.color_attachments[0].use(location=0)
-        program["u_source"].value = 0
-        program["u_size"].value = tuple(float(v) for v in size)
-        with drawing_into(self.ctx, screen):
-            # The viewport covers the whole widget (so the shader's coordinates do); the
-            # scissor keeps the rows wanted.
-            self.ctx.viewport = (0, 0, *size)
-            self.ctx.scissor = (0, 0, size[0], rows)
-            try:
-                draw_fullscreen(self.ctx, program)
-            finally:
-                self.ctx.scissor = None
-
-    def _adapt_scale(self, frame_ms: float, scale: float) -> None:
-        self.moving_scale = adapted_scale(frame_ms, scale)
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        self.changing()
 
     def cleanup(self) -> None:
-        """Release our GL objects now (the view then stays blank)."""
-        self.gl.release(self.context())
+        """End the drawing thread and release its GL objects now (the view then stays as it
+        was)."""
+        self.gl.stop()
+        if self.error is None:
+            self.error = "The 3D view is closed."
 
     # -- mouse -------------------------------------------------------------------------------------
 
@@ -403,3 +306,17 @@ class SandView(QOpenGLWidget):
             # Wheel forward moves closer.
             self.zoomed.emit(WHEEL_FACTOR ** (-steps))
         event.accept()
+
+
+def _image_of(pixels: np.ndarray) -> QImage:
+    """A QImage over ``pixels`` (rows top-down, RGBA); the caller keeps ``pixels`` alive."""
+    height, width = pixels.shape[:2]
+    return QImage(pixels.data, width, height, width * 4, QImage.Format.Format_RGBX8888)
+
+
+def _view_field(name: str) -> property:
+    return property(lambda view: getattr(view._view, name), doc=f"The view's {name}.")
+
+
+for _name in _VIEW_FIELDS:  # distance_m, pitch_deg, …: the view in hand
+    setattr(SandView, _name, _view_field(_name))

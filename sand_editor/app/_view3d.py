@@ -22,7 +22,6 @@ from PySide6.QtWidgets import (
 
 from sand_editor.app._model import PresetModel
 from sand_editor.app._sand_view import SandView
-from sand_editor.gl import release_standalone_context
 from sand_editor.render.modes import MODE_HELP, MODES
 from sand_editor.view import (
     CLOCK,
@@ -296,22 +295,12 @@ class View3DPanel(QWidget):
         self.view_model.tick(source=CLOCK)
 
     def showEvent(self, event) -> None:
-        # Qt makes its GLX contexts current from now on, which libglvnd refuses while a
-        # headless EGL context (a script's, or a test's) is current on this thread.
-        release_standalone_context()
         super().showEvent(event)
         self._update_day_timer()
-        # A context that could not be created never reaches initializeGL: say so.
-        QTimer.singleShot(200, self._check_context)
 
     def hideEvent(self, event) -> None:
         super().hideEvent(event)
         self.day_timer.stop()
-
-    def _check_context(self) -> None:
-        if self.view.isVisible() and not self.view.isValid() and self.view.error is None:
-            self.view.error = "Cannot create an OpenGL 3.3 core context for the 3D view."
-            self.show_message(self.view.error)
 
 
 def _step_of_distance(distance_m: float) -> int:

@@ -86,8 +86,10 @@ class EditorBench:
     def _wait_generated(self) -> None:
         _wait(self.app, 60.0, lambda: not self.window.regenerator.busy)
 
-    def _drive(self, name: str, every_ms: int, step) -> dict:
-        """Latency while ``step(i)`` runs every ``every_ms`` for the scenario's length."""
+    def _drive(self, name: str, every_ms: int, step, view=None) -> dict:
+        """Latency while ``step(i)`` runs every ``every_ms`` for the scenario's length, and the
+        frames ``view`` drew a second meanwhile (a view that stopped drawing would answer at
+        once)."""
         driver = QTimer(interval=every_ms)
         count = [0]
 
@@ -97,9 +99,11 @@ class EditorBench:
 
         driver.timeout.connect(tick)
         self.probe.start()
+        frames = view.frames if view is not None else 0
         driver.start()
         _wait(self.app, self.seconds)
         driver.stop()
+        frames = view.frames - frames if view is not None else None
         _wait(self.app, 0.5)
         samples = self.probe.stop()
         self._wait_generated()
@@ -109,6 +113,7 @@ class EditorBench:
             "p50_ms": round(statistics.median(samples), 1),
             "p95_ms": round(_percentile(samples, 0.95), 1),
             "max_ms": round(max(samples), 1),
+            "frames_per_s": None if frames is None else round(frames / self.seconds, 1),
         }
 
     def _slider_drag(self, i: int) -> None:
@@ -124,14 +129,13 @@ class EditorBench:
         self.slider.setSliderDown(False)
         panel = window.preview.show_3d()
         _wait(self.app, 30.0, lambda: panel.view.frames > 0 and panel.view.at_rest)
-        panel.view.makeCurrent()
-        self.machine = machine_description(panel.view.ctx)
-        panel.view.doneCurrent()
-        rows.append(self._drive("3D orbit", 16, lambda i: panel.view.orbited.emit(1.5, 0.0)))
-        rows.append(self._drive("3D edits", 30, self._slider_drag))
+        self.machine = panel.view.call_in_context(machine_description)
+        view = panel.view
+        rows.append(self._drive("3D orbit", 16, lambda i: view.orbited.emit(1.5, 0.0), view))
+        rows.append(self._drive("3D edits", 30, self._slider_drag, view))
         self.slider.setSliderDown(False)
         panel.day_speed.setValue(1.0)  # an hour a second
-        rows.append(self._drive("3D clock", 1000, lambda i: None))
+        rows.append(self._drive("3D clock", 1000, lambda i: None, view))
         panel.day_speed.setValue(0)
         return rows
 
@@ -200,13 +204,14 @@ def format_table(results: dict) -> str:
         "Editor latency on {cpu_count} cores, {gl_renderer}, PySide6 {pyside6}, "
         "window {window}".format(window=results["window"], **results["machine"]),
         "",
-        "| Scenario | p50 ms | p95 ms | max ms | samples |",
-        "|---|---:|---:|---:|---:|",
+        "| Scenario | p50 ms | p95 ms | max ms | samples | 3D frames/s |",
+        "|---|---:|---:|---:|---:|---:|",
     ]
     for row in results["latency"]:
+        fps = "–" if row["frames_per_s"] is None else row["frames_per_s"]
         lines.append(
             f"| {row['scenario']} | {row['p50_ms']} | {row['p95_ms']} | {row['max_ms']} | "
-            f"{row['samples']} |"
+            f"{row['samples']} | {fps} |"
         )
     edit = results["edit_to_screen"]
     lines += [

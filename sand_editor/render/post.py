@@ -14,9 +14,12 @@ import numpy as np
 
 from sand_editor.gl import (
     GLObjects,
+    build_mipmaps_without_gil,
     draw_fullscreen,
     drawing_into,
+    finish_without_gil,
     fullscreen_program,
+    read_without_gil,
     render_state,
     set_uniform,
 )
@@ -37,6 +40,8 @@ class PostChain:
         self.depth_texture: moderngl.Texture | None = None
         self.scene_framebuffer: moderngl.Framebuffer | None = None
         self._levels: list[tuple[moderngl.Texture, moderngl.Framebuffer]] = []
+        # Wait for each pass's source without Python's lock (see SandRenderer.wait_without_gil).
+        self.wait_without_gil = False
         # What lives as long as the chain; the size-dependent targets are made by resize().
         self._owned = GLObjects()
         keep = self._owned.keep
@@ -146,12 +151,19 @@ class PostChain:
         source = self._levels[-1][0]
         with render_state(self.ctx):
             self._pass(self._meter, source, self._meter_fbo, (METER_SIZE, METER_SIZE))
-        self._meter_texture.build_mipmaps()
         top = int(np.log2(METER_SIZE))
-        log_mean = float(np.frombuffer(self._meter_texture.read(level=top), dtype=np.float32)[0])
+        if self.wait_without_gil:
+            build_mipmaps_without_gil(self._meter_texture)
+            data = read_without_gil(self._meter_texture, level=top)
+        else:
+            self._meter_texture.build_mipmaps()
+            data = self._meter_texture.read(level=top)
+        log_mean = float(np.frombuffer(data, dtype=np.float32)[0])
         return float(np.exp(log_mean)) if np.isfinite(log_mean) else 0.0
 
     def _pass(self, program, source, framebuffer, size, offset=(0, 0), blend=False) -> None:
+        if self.wait_without_gil:
+            finish_without_gil()  # the draws into the source, which this pass would wait on
         source.use(location=0)
         set_uniform(program, "u_source", 0)
         set_uniform(program, "u_source_texel", (1.0 / source.size[0], 1.0 / source.size[1]))

@@ -13,6 +13,7 @@ import numpy as np
 from sand_editor.gl import (
     GLObjects,
     drawing_into,
+    finish_without_gil,
     program,
     render_state,
     set_matrix,
@@ -57,6 +58,11 @@ class SandRenderer:
         # which the suite compares pixel for pixel).
         self.split_ranges = True
         self.exposure = ExposureControl()
+        # Where a pass reads what an earlier one drew, wait for it without Python's lock: on a
+        # CPU rasterizer that wait is the drawing, which moderngl would otherwise do holding
+        # the lock, stopping every other thread (the editor draws on a thread of its own). Off
+        # by default: on a GPU each wait stalls the pipeline.
+        self.wait_without_gil = False
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
         # shades what lies within the material's close range, the far one only the far term.
         self._owned = GLObjects()
@@ -124,6 +130,9 @@ class SandRenderer:
         self._shadow_frame = self._shadow_maps(
             scene, camera, sky, debug, viewport[2:], request.moving
         )
+        self.post.wait_without_gil = self.wait_without_gil
+        if self.wait_without_gil:
+            finish_without_gil()  # the shadow maps, which the surface reads
         times["shadows_ms"] = _lap(start)
 
         with drawing_into(ctx, hdr_target):

@@ -167,7 +167,6 @@ def test_the_editors_signal_paths_keep_the_singleton_counts(window, qtbot):
 
 @pytest.mark.slow
 def test_soak_the_3d_view_with_the_clock_running(window, qtbot):
-    # A small window: Qt composites the whole window on every frame of the GL view.
     window.resize(560, 360)
     panel = open_3d(window, qtbot)
     panel.view.setFixedSize(96, 64)
@@ -184,4 +183,4 @@ def test_soak_the_3d_view_with_the_clock_running(window, qtbot):
     assert counter.healthy(), f"references lost after {counter.emissions}: {counter.fallen}"
     assert panel.view.frames - start_frames >= SOAK_FRAMES
     assert panel.view.error is None
-    assert panel.view.ctx.error == "GL_NO_ERROR"
+    assert panel.view.gl_error() == "GL_NO_ERROR"

@@ -22,20 +22,12 @@ pytestmark = pytest.mark.qt
 
 def live_gl_objects_of(view) -> dict[str, int]:
     """Names of each kind of GL object alive in the view's context (the driver's own count)."""
-    view.makeCurrent()
-    try:
-        return live_gl_objects(view.ctx)
-    finally:
-        view.doneCurrent()
+    return view.call_in_context(live_gl_objects)
 
 
 def gl_error_of(view) -> str:
-    """The (then cleared) error state of the view's context, not of whichever is current."""
-    view.makeCurrent()
-    try:
-        return view.ctx.error
-    finally:
-        view.doneCurrent()
+    """The (then cleared) error state of the view's drawing context."""
+    return view.gl_error()
 
 
 def resident_kib() -> int:
@@ -52,12 +44,8 @@ def resident_kib() -> int:
 
 
 def uploaded_normal_height(view) -> np.ndarray:
-    view.makeCurrent()
-    try:
-        grains = view.material._grains
-        data = grains.normal_height.read()
-    finally:
-        view.doneCurrent()
+    grains = view.material._grains
+    data = view.call_in_context(lambda ctx: grains.normal_height.read())
     return np.frombuffer(data, np.float32).reshape(grains.size, grains.size, 4)
 
 
@@ -83,8 +71,7 @@ def test_one_generation_feeds_both_views(window, qtbot):
     uploaded = uploaded_normal_height(view)
     assert np.array_equal(uploaded[..., :3], textures.normal)
     assert np.array_equal(uploaded[..., 3], textures.height)
-    assert "sand_generator" not in (view.ctx.extra or {})
-    # Built in Qt's context, whatever state Qt left there, the far-field colour is the tile's.
+    assert "sand_generator" not in (view.call_in_context(lambda ctx: ctx.extra) or {})
     qtbot.waitUntil(lambda: view.at_rest, timeout=TIMEOUT_MS)
     np.testing.assert_allclose(
         view.material.average_albedo, textures.albedo.mean(axis=(0, 1)), rtol=0.02
@@ -205,7 +192,7 @@ def test_moving_frames_draw_at_reduced_resolution_then_refine(window, qtbot):
 def pixel_image(view) -> np.ndarray:
     from tests.app.test_view3d import pixels
 
-    return pixels(view.grabFramebuffer())
+    return pixels(view.grab().toImage())
 
 
 @pytest.mark.slow

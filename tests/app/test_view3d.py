@@ -1,4 +1,5 @@
-"""The 3D tab: the real renderer in Qt's context, driven by its controls and the preset model."""
+"""The 3D tab: the real renderer on the view's drawing thread, driven by its controls and the
+preset model, shown in a real window."""
 
 from __future__ import annotations
 
@@ -27,7 +28,8 @@ def pixels(image: QImage) -> np.ndarray:
 def open_3d(editor, qtbot):
     panel = editor.preview.show_3d()
     panel.view.setFixedSize(*VIEW_SIZE)
-    qtbot.waitUntil(lambda: panel.view.frames > 0 or panel.view.error, timeout=TIMEOUT_MS)
+    view = panel.view
+    qtbot.waitUntil(lambda: view.frames > 0 or view.error is not None, timeout=TIMEOUT_MS)
     assert panel.view.error is None, panel.view.error
     return panel
 
@@ -37,15 +39,17 @@ def panel(window, qtbot):
     return open_3d(window, qtbot)
 
 
-def frame(panel) -> np.ndarray:
-    # grabFramebuffer draws a fresh frame with the view's current settings.
-    image = pixels(panel.view.grabFramebuffer())
-    assert panel.view.ctx.error == "GL_NO_ERROR"
+def frame(panel, qtbot) -> np.ndarray:
+    """The view's full-resolution frame of its current settings, as the window shows it."""
+    qtbot.waitUntil(lambda: panel.view.at_rest or panel.view.error is not None, timeout=TIMEOUT_MS)
+    assert panel.view.error is None, panel.view.error
+    image = pixels(panel.view.grab().toImage())
+    assert panel.view.gl_error() == "GL_NO_ERROR"
     return image
 
 
 def test_the_view_initialises_and_paints_the_desert(panel, qtbot):
-    image = frame(panel)
+    image = frame(panel, qtbot)
     assert image.shape[:2] == (VIEW_SIZE[1], VIEW_SIZE[0])
     assert image.max() > 40, "all black"
     assert image.reshape(-1, 3).std(axis=0).max() > 1.0, "a single flat colour"
@@ -53,14 +57,14 @@ def test_the_view_initialises_and_paints_the_desert(panel, qtbot):
     assert panel.mode_combo.count() == len(MODES)
 
 
-def test_night_is_darker_than_noon(panel):
+def test_night_is_darker_than_noon(panel, qtbot):
     panel.time_slider.setValue(12 * 60)
     assert panel.time_label.text() == "12:00"
-    noon = frame(panel)
+    noon = frame(panel, qtbot)
     panel.time_slider.setValue(30)
     assert panel.time_label.text() == "00:30"
     assert panel.view.time_hours == pytest.approx(0.5)
-    night = frame(panel)
+    night = frame(panel, qtbot)
     assert night.mean() < 0.5 * noon.mean()
 
 
@@ -79,7 +83,7 @@ def test_shading_changes_keep_the_grains_and_generation_changes_replace_them(pan
     qtbot.waitUntil(lambda: view.grain_uploads > uploads, timeout=TIMEOUT_MS)
     qtbot.waitUntil(lambda: view.material.preset == panel.model.preset, timeout=TIMEOUT_MS)
     assert view.grains_generation == panel.model.preset.generation
-    assert view.ctx.error == "GL_NO_ERROR"
+    assert view.gl_error() == "GL_NO_ERROR"
     # The texture preview shows the same tile the view took.
     qtbot.waitUntil(lambda: not panel.window().regenerator.busy, timeout=TIMEOUT_MS)
     assert panel.window().preview.textures.size == panel.window().preview.preview_size
@@ -87,11 +91,11 @@ def test_shading_changes_keep_the_grains_and_generation_changes_replace_them(pan
 
 def test_a_fixed_exposure_overrides_the_metered_one_and_auto_restores_it(panel, qtbot):
     panel.time_slider.setValue(12 * 60)
-    metered = frame(panel)
+    metered = frame(panel, qtbot)
     panel.exposure.setValue(0.05)
     assert panel.view_model.state.exposure == 0.05 and panel.view.exposure == 0.05
     qtbot.waitUntil(lambda: panel.view.last_timings["exposure"] == 0.05, timeout=TIMEOUT_MS)
-    dim = frame(panel)
+    dim = frame(panel, qtbot)
     assert dim.mean() < 0.5 * metered.mean()
     panel.exposure.setValue(0.0)
     assert panel.exposure.text() == "auto" and panel.view.exposure is None
@@ -101,27 +105,27 @@ def test_a_fixed_exposure_overrides_the_metered_one_and_auto_restores_it(panel, 
     assert panel.exposure.value() == 2.0
 
 
-def test_blend_mode_changes_the_image(panel):
-    full = frame(panel)
+def test_blend_mode_changes_the_image(panel, qtbot):
+    full = frame(panel, qtbot)
     panel.mode_combo.setCurrentText("blend")
     assert panel.view.mode == "blend"
-    blend = frame(panel)
+    blend = frame(panel, qtbot)
     assert np.abs(blend.astype(int) - full.astype(int)).mean() > 5
 
 
 @pytest.mark.parametrize("sphere", [False, True])
-def test_both_ends_of_the_distance_range_render_cleanly(panel, sphere):
+def test_both_ends_of_the_distance_range_render_cleanly(panel, sphere, qtbot):
     panel.sphere.setChecked(sphere)
     panel.distance_slider.setValue(0)
     assert panel.view.distance_m == pytest.approx(MIN_DISTANCE_M)
     assert panel.distance_spin.value() == pytest.approx(MIN_DISTANCE_M)
-    near = frame(panel)
+    near = frame(panel, qtbot)
     panel.distance_spin.setValue(MAX_DISTANCE_M)
     assert panel.distance_slider.value() == DISTANCE_STEPS
-    far = frame(panel)
+    far = frame(panel, qtbot)
     for image in (near, far):
         assert image.max() > 40
-    assert panel.view.ctx.error == "GL_NO_ERROR"
+    assert panel.view.gl_error() == "GL_NO_ERROR"
 
 
 def test_wheel_and_drag_move_the_camera(panel, qtbot):
@@ -158,7 +162,7 @@ def test_closing_the_editor_releases_the_gl_resources(qtbot, default_preset):
     editor.show()
     qtbot.waitExposed(editor)
     panel = open_3d(editor, qtbot)
-    frame(panel)
+    frame(panel, qtbot)
     resources = panel.view.gl
 
     editor.close()

@@ -6,6 +6,8 @@ of drawing everything."""
 from __future__ import annotations
 
 import math
+import sys
+import threading
 
 import numpy as np
 import pytest
@@ -101,7 +103,8 @@ def test_a_moving_view_draws_its_shadow_maps_again_one_a_frame(sand_renderer, gl
         a = math.radians(degrees)
         return Camera.look_at(eye, eye + (math.sin(a), -0.4, -math.cos(a)), aspect=16 / 9)
 
-    target = gl_clean.framebuffer([gl_clean.texture(SIZE, 4)])
+    size = (320, 180)  # waits long enough to tell a released lock from numpy's own releases
+    target = gl_clean.framebuffer([gl_clean.texture(size, 4)])
     try:
         drawn = {}
         for moving in (True, False):
@@ -132,3 +135,45 @@ def test_objects_are_drawn_whole_by_both_variants(sand_renderer):
         assert renderer._range_runs(obj, camera, True) == (whole, whole)
     finally:
         renderer.clear_objects()
+
+
+def test_a_frame_waited_for_without_the_lock_is_the_same_frame_and_lets_threads_run(
+    sand_renderer, gl_clean
+):
+    # The editor's 3D view draws on a thread of its own with the renderer's waits made without
+    # Python's lock, so the GUI thread runs while the CPU rasterizer draws.
+    renderer = sand_renderer
+    camera = _camera(renderer, 1.0, 45.0, 30.0)
+    request = FrameRequest(camera, sky_at(16.5), "full", exposure=None, show_sphere=True)
+    count, stop = [0], threading.Event()
+
+    def spin():
+        while not stop.wait(0.0005):
+            count[0] += 1
+
+    frames, exposures, progress = [], [], []
+    size = (320, 180)  # waits long enough to tell a released lock from numpy's own releases
+    target = gl_clean.framebuffer([gl_clean.texture(size, 4)])
+    interval = sys.getswitchinterval()
+    thread = threading.Thread(target=spin, daemon=True)
+    thread.start()
+    try:
+        sys.setswitchinterval(30.0)  # the other thread runs only where the lock is given away
+        for released in (False, True):
+            renderer.wait_without_gil = released
+            before = count[0]
+            exposures.append(renderer.render(target, request)["exposure"])
+            progress.append(count[0] - before)
+            frames.append(target.read(components=4))
+    finally:
+        sys.setswitchinterval(interval)
+        renderer.wait_without_gil = False
+        stop.set()
+        thread.join()
+        target.color_attachments[0].release()
+        target.release()
+    assert frames[0] == frames[1]
+    assert exposures[0] == exposures[1]
+    # Without, the other thread runs only where numpy and the driver give the lock away (about
+    # 16 counts here); with, also while the rasterizer draws (about 160).
+    assert progress[1] > 2 * progress[0], progress

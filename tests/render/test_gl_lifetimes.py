@@ -112,7 +112,7 @@ def test_gl_objects_releases_everything_it_kept_once_last_made_first(gl_clean):
     with GLObjects() as owned:
         texture = owned.keep(gl_clean.texture((8, 8), 4))
         framebuffer = owned.keep(gl_clean.framebuffer([texture]))
-        program = owned.keep(fullscreen_program(gl_clean, "upscale.frag"))
+        program = owned.keep(fullscreen_program(gl_clean, "post.glsl", {"METER": 1}))
         with drawing_into(gl_clean, framebuffer):
             draw_fullscreen(gl_clean, program)  # makes the program's vertex array
         assert live_gl_objects(gl_clean)["VertexArray"] == before["VertexArray"] + 1
