@@ -164,6 +164,8 @@ def test_closing_the_editor_releases_the_gl_resources(qtbot, default_preset):
     panel = open_3d(editor, qtbot)
     frame(panel, qtbot)
     resources = panel.view.gl
+    panel.view.orbited.emit(5.0, 0.0)  # closed with a frame in hand on the drawing thread
+    assert panel.view._in_flight is not None
 
     editor.close()
     with qtbot.waitSignal(editor.destroyed, timeout=TIMEOUT_MS):
@@ -171,3 +173,4 @@ def test_closing_the_editor_releases_the_gl_resources(qtbot, default_preset):
 
     assert resources.release_error == "GL_NO_ERROR"
     assert resources.ctx is None and resources.renderer is None and resources.material is None
+    assert not resources.running  # the drawing thread ended with the window
