@@ -203,7 +203,30 @@ _MESA_LINE = re.compile(r"\b\d+:(\d+)\((\d+)\)")
 _NVIDIA_LINE = re.compile(r"\b\d+\((\d+)\)")
 
 
-def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
+# The one dialect the shaders are written in, and what makes the same text GLSL ES 3.00
+# (WebGL2, OpenGL ES 3): the version line and default precisions, highest everywhere (the
+# glint moments subtract nearly equal numbers; mediump would round them away).
+CORE_VERSION = "#version 330 core"
+ES_HEADER = "\n".join(
+    (
+        "#version 300 es",
+        "precision highp float;",
+        "precision highp int;",
+        *(
+            f"precision highp {sampler};"
+            for sampler in (
+                "sampler2D", "sampler3D", "sampler2DArray", "sampler2DShadow",
+                "sampler2DArrayShadow", "usampler2D", "isampler2D",
+            )
+        ),
+    )
+)  # fmt: skip
+DIALECTS = ("core", "es")
+
+
+def shader_text(
+    name: str, defines: Mapping[str, object] | None = None, dialect: str = "core"
+) -> str:
     """GLSL source of a file in ``shaders/`` with its ``#include "…"`` lines resolved and
     ``defines`` (after the colour facts every program gets) inserted after its ``#version``
     line.
@@ -212,8 +235,19 @@ def shader_text(name: str, defines: Mapping[str, object] | None = None) -> str:
     libraries can include what they use. ``#include "file" if NAME`` includes the file only
     when ``defines`` holds NAME. ``#line`` directives number each file's lines as its own
     (see :func:`source_line`).
+
+    ``dialect="es"`` gives the same program as GLSL ES 3.00 (WebGL2): one source for both,
+    never a copy; the line numbers stay those of the core text.
     """
-    return _expand(name, defines)[0]
+    text = _expand(name, defines)[0]
+    if dialect == "core":
+        return text
+    if dialect != "es":
+        raise ValueError(f"unknown GLSL dialect {dialect!r}; allowed {', '.join(DIALECTS)}")
+    header, _, body = text.partition("\n")
+    if header.strip() != CORE_VERSION:
+        raise ShaderSourceError(f"shaders/{name}: starts {header!r}, not {CORE_VERSION!r}")
+    return f"{ES_HEADER}\n{body}"
 
 
 def _expand(name: str, defines: Mapping[str, object] | None) -> tuple[str, tuple[str, ...]]:
@@ -335,9 +369,19 @@ def fullscreen_program(ctx: moderngl.Context, fragment: str, defines: dict | Non
     return _compiled(ctx, ("fullscreen.vert", None), (fragment, defines))
 
 
+# Every program this process compiled, as ((vertex file, defines), (fragment file, defines)):
+# what a port of the renderer to another dialect must compile (tests check them all as ES).
+compiled_programs: set[tuple] = set()
+
+
+def _spec(file: str, defines: Mapping[str, object] | None) -> tuple:
+    return file, tuple(sorted((defines or {}).items()))
+
+
 def _compiled(ctx: moderngl.Context, vertex: tuple, fragment: tuple):
     """Compile a program of two shader files (name, defines); a compile error names the file
     and line of each message in it."""
+    compiled_programs.add((_spec(*vertex), _spec(*fragment)))
     try:
         return ctx.program(
             vertex_shader=shader_text(*vertex), fragment_shader=shader_text(*fragment)

@@ -108,8 +108,9 @@ void main() {
     out_normal_height = vec4(0.0, 0.0, 1.0, 0.0);
     out_layer_grain = uvec2(0u);
     if (owner >= 0) {
-        Point nearest = owner_i1 < 0 ? Point(vec2(0.0), 1.0, 0u)
-                                     : indexed_point(owner_i1, cell, frac, owner);
+        // (no ?: on a struct: GLSL ES, which the same source compiles as, refuses it)
+        Point nearest = Point(vec2(0.0), 1.0, 0u);
+        if (owner_i1 >= 0) nearest = indexed_point(owner_i1, cell, frac, owner);
         // The grain is the cap of a ball of radius² u_grain_reach2 around its feature point: its
         // normal points from the ball's centre, straight up over the point (noise.py).
         float cap = sqrt(max(u_grain_reach2 - dot(nearest.delta, nearest.delta),

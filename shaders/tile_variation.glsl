@@ -100,7 +100,8 @@ TileCopy tile_copy(vec2 tc, float lod) {
         float best_score = -1.0;
         for (int i = 0; i < 3; ++i) {
             if (bias * (w_best - weight[i]) >= 1.0) continue;
-            TileCopy c = i == nearest ? own : copy_of_vertex(vertex[i], tc);
+            TileCopy c = own;  // (no ?: on a struct: GLSL ES refuses it)
+            if (i != nearest) c = copy_of_vertex(vertex[i], tc);
             float score = grain_rank(c) + bias * weight[i];
             if (score > best_score) {
                 best_score = score;

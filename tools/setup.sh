@@ -16,7 +16,7 @@ SYSTEM_PACKAGES=(
     libxcb-xkb1 libx11-xcb1 libxrender1 libxi6 libsm6 libice6
     xvfb xauth
 )
-TEST_SYSTEM_PACKAGES=(debootstrap util-linux chromium)
+TEST_SYSTEM_PACKAGES=(debootstrap util-linux chromium glslang-tools)
 
 say() { printf 'sand-editor setup: %s\n' "$*" >&2; }
 

@@ -142,17 +142,13 @@ def _column_major(matrix: np.ndarray, name: str) -> list[float]:
 
 
 class _Session:
-    """What the page posts back, and the files it may fetch."""
+    """What the page posts back (it is done once every name in ``wanted``, or ``error``, came),
+    and the files it may fetch: ``routes`` by URL path, ``trees`` by URL prefix."""
 
-    def __init__(self, root: Path, model: Path, params: dict):
-        self.routes = {
-            "/render.html": JS_TOOLS / "render.html",
-            "/render.mjs": JS_TOOLS / "render.mjs",
-        }
-        self.trees = {
-            "/node_modules/three/": root / "node_modules" / "three",
-            "/model/": model.parent,
-        }
+    def __init__(self, routes: dict, trees: dict, params: dict, wanted: frozenset[str]):
+        self.routes = routes
+        self.trees = trees
+        self.wanted = wanted
         self.params = json.dumps(params).encode()
         self.posts: dict[str, bytes] = {}
         self.missing: list[str] = []
@@ -172,7 +168,7 @@ class _Session:
     def receive(self, name: str, body: bytes) -> None:
         with self.lock:
             self.posts.setdefault(name, body)
-            if "error" in self.posts or {"result", "png", "info"} <= self.posts.keys():
+            if "error" in self.posts or self.wanted <= self.posts.keys():
                 self.done.set()
 
 
@@ -279,23 +275,55 @@ def render_threejs(
     if len(params["sunDirection"]) != 3 or len(params["sunIrradiance"]) != 3:
         raise ValueError("sun_direction and sun_irradiance must have 3 components")
 
-    session = _Session(root, model, params)
+    routes = {"/render.html": JS_TOOLS / "render.html", "/render.mjs": JS_TOOLS / "render.mjs"}
+    trees = {"/node_modules/three/": root / "node_modules" / "three", "/model/": model.parent}
+    what = f"three.js render of {model.name}"
+    wanted = frozenset({"result", "png", "info"})
+    posts = run_page(
+        "/render.html", routes, trees, params, wanted, what, (width, height), timeout_s
+    )
+
+    raw = np.frombuffer(posts["result"], dtype=np.float32)
+    if raw.size != width * height * 4:
+        raise RuntimeError(f"expected {width * height * 4} floats from the page, got {raw.size}")
+    pixels = raw.reshape(height, width, 4)[::-1].copy()
+    return {
+        "pixels": pixels,
+        "png": posts["png"],
+        "info": json.loads(posts["info"]),
+    }
+
+
+def run_page(
+    page: str,
+    routes: dict,
+    trees: dict,
+    params: dict,
+    wanted: frozenset[str],
+    what: str,
+    size: tuple[int, int] = (64, 64),
+    timeout_s: float = 120,
+) -> dict[str, bytes]:
+    """Serves ``routes`` and ``trees`` (and ``params`` as /params.json) on localhost, opens
+    ``page`` in headless Chromium and returns what it posted once every name in ``wanted`` came.
+    Raises RuntimeError (naming ``what``) with the page's error, or when nothing comes back."""
+    session = _Session(routes, trees, params, wanted)
     server = ThreadingHTTPServer(("127.0.0.1", 0), _handler(session))
     server.daemon_threads = True
-    thread = threading.Thread(target=server.serve_forever, name="threejs-server", daemon=True)
+    thread = threading.Thread(target=server.serve_forever, name="page-server", daemon=True)
     thread.start()
     profile = Path(tempfile.mkdtemp(prefix="sand-editor-chromium-"))
     log = profile / "chromium.log"
     process = None
     try:
-        url = f"http://127.0.0.1:{server.server_address[1]}/render.html"
+        url = f"http://127.0.0.1:{server.server_address[1]}{page}"
         with open(log, "wb") as log_file:
             process = subprocess.Popen(
                 [
                     CHROMIUM,
                     *CHROMIUM_FLAGS,
                     f"--user-data-dir={profile / 'profile'}",
-                    f"--window-size={width},{height}",
+                    f"--window-size={size[0]},{size[1]}",
                     url,
                 ],
                 stdin=subprocess.DEVNULL,
@@ -307,20 +335,18 @@ def render_threejs(
         while not session.done.wait(0.1):
             if process.poll() is not None:
                 raise RuntimeError(
-                    f"Chromium exited with {process.returncode} before the frame came back:\n"
+                    f"Chromium exited with {process.returncode} before the {what} came back:\n"
                     + _console_lines(log)
                 )
             if time.monotonic() > deadline:
                 missing = f"; not found: {session.missing}" if session.missing else ""
                 raise RuntimeError(
-                    f"three.js render of {model.name} timed out after {timeout_s} s{missing}; "
+                    f"{what} timed out after {timeout_s} s{missing}; "
                     "Chromium's console:\n" + _console_lines(log)
                 )
         if "error" in session.posts:
-            raise RuntimeError(
-                f"three.js render of {model.name} failed: "
-                + session.posts["error"].decode(errors="replace")
-            )
+            raise RuntimeError(f"{what} failed: " + session.posts["error"].decode(errors="replace"))
+        return dict(session.posts)
     finally:
         if process is not None:
             _stop(process)
@@ -328,12 +354,22 @@ def render_threejs(
         server.server_close()
         shutil.rmtree(profile, ignore_errors=True)
 
-    raw = np.frombuffer(session.posts["result"], dtype=np.float32)
-    if raw.size != width * height * 4:
-        raise RuntimeError(f"expected {width * height * 4} floats from the page, got {raw.size}")
-    pixels = raw.reshape(height, width, 4)[::-1].copy()
-    return {
-        "pixels": pixels,
-        "png": session.posts["png"],
-        "info": json.loads(session.posts["info"]),
-    }
+
+def compile_webgl2(programs: dict[str, tuple[str, str]], timeout_s: float = 120) -> dict:
+    """Compiles and links each (vertex, fragment) GLSL ES 3.00 pair of ``programs`` in
+    Chromium's WebGL2 (ANGLE on SwiftShader: ANGLE's own validator, then SwiftShader's
+    compiler). Returns, by name: ``linked`` (bool), ``log`` (the compile and link logs) and
+    ``uniforms`` (the active uniforms' names), plus ``info`` (the WebGL renderer)."""
+    params = {"programs": [{"name": n, "vertex": v, "fragment": f} for n, (v, f) in
+                           programs.items()]}  # fmt: skip
+    routes = {"/compile.html": JS_TOOLS / "compile.html"}
+    posts = run_page(
+        "/compile.html",
+        routes,
+        {},
+        params,
+        frozenset({"result"}),
+        "WebGL2 compile",
+        timeout_s=timeout_s,
+    )
+    return json.loads(posts["result"])
