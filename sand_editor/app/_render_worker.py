@@ -65,7 +65,7 @@ class FrameResult:
     """What a job drew: ``pixels`` (rows top-down, RGBA) and the renderer's timings, or the
     ``error`` that stopped it; no pixels while the view has no grains yet."""
 
-    job: RenderJob
+    job: RenderJob | None  # None: the thread could not start
     pixels: np.ndarray | None = None
     timings: dict = dataclasses.field(default_factory=dict)
     error: str | None = None
@@ -106,7 +106,6 @@ class RenderWorker:
         self._jobs: queue.SimpleQueue = queue.SimpleQueue()
         self._reporter = _Reporter()
         self._reporter.done.connect(on_result)
-        self._started = threading.Event()
         self._thread = threading.Thread(target=self._run, name="sand-view", daemon=True)
         self._thread.start()
 
@@ -146,10 +145,10 @@ class RenderWorker:
         except Exception as error:
             self.start_error = f"Cannot start the 3D view: {error}"
             self._release()
-        while self.start_error is None:
-            job = self._jobs.get()
-            if job is None:
-                break
+            self._reporter.done.emit(FrameResult(None, error=self.start_error))
+            self._drain()
+            return
+        while (job := self._jobs.get()) is not None:
             if isinstance(job, _Call):
                 try:
                     job.value = job.function(self.ctx)
@@ -162,9 +161,6 @@ class RenderWorker:
             except Exception as error:  # a driver error is shown, not fatal to the editor
                 result = FrameResult(job, error=f"3D view: {error}")
             self._reporter.done.emit(result)
-        if self.start_error is not None:
-            self._reporter.done.emit(FrameResult(None, error=self.start_error))
-            self._drain()
         self._release()
 
     def _drain(self) -> None:

@@ -99,11 +99,11 @@ class EditorBench:
 
         driver.timeout.connect(tick)
         self.probe.start()
-        frames = view.frames if view is not None else 0
+        first_frame = view.frames if view is not None else 0
         driver.start()
         _wait(self.app, self.seconds)
         driver.stop()
-        frames = view.frames - frames if view is not None else None
+        frames = view.frames - first_frame if view is not None else None
         _wait(self.app, 0.5)
         samples = self.probe.stop()
         self._wait_generated()

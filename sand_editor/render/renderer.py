@@ -58,11 +58,6 @@ class SandRenderer:
         # which the suite compares pixel for pixel).
         self.split_ranges = True
         self.exposure = ExposureControl()
-        # Where a pass reads what an earlier one drew, wait for it without Python's lock: on a
-        # CPU rasterizer that wait is the drawing, which moderngl would otherwise do holding
-        # the lock, stopping every other thread (the editor draws on a thread of its own). Off
-        # by default: on a GPU each wait stalls the pipeline.
-        self.wait_without_gil = False
         # The surface is drawn by two variants of its program (sand_surface.glsl): the near one
         # shades what lies within the material's close range, the far one only the far term.
         self._owned = GLObjects()
@@ -77,6 +72,19 @@ class SandRenderer:
         self._shadow_scene = None  # (scene, sky) the shadow frame was made for
         self.meshes = SceneMeshes(ctx, self.terrain, self._surfaces, self._shadows.program)
         self._readback: moderngl.Framebuffer | None = None
+
+    @property
+    def wait_without_gil(self) -> bool:
+        """Where a pass reads what an earlier one drew, wait for it without Python's lock: on a
+        CPU rasterizer that wait is the drawing, which moderngl would otherwise do holding the
+        lock, stopping every other thread (the editor draws on a thread of its own). Off by
+        default: on a GPU each wait stalls the pipeline. Kept by the post chain, whose passes
+        wait the same way."""
+        return self.post.wait_without_gil
+
+    @wait_without_gil.setter
+    def wait_without_gil(self, on: bool) -> None:
+        self.post.wait_without_gil = bool(on)
 
     def set_material(self, material) -> None:
         """The ``SandMaterial`` (anything with ``bind(program, first_unit) -> int``)."""
@@ -130,7 +138,6 @@ class SandRenderer:
         self._shadow_frame = self._shadow_maps(
             scene, camera, sky, debug, viewport[2:], request.moving
         )
-        self.post.wait_without_gil = self.wait_without_gil
         if self.wait_without_gil:
             finish_without_gil()  # the shadow maps, which the surface reads
         times["shadows_ms"] = _lap(start)
