@@ -16,7 +16,7 @@ from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
-from sand_editor.resources import BENCH_SHADERS
+from sand_editor.resources import BENCH_SHADERS, shader_source
 from sand_editor.view import MODES
 from tests.export.js_tools import CHROMIUM, compile_webgl2
 from tests.render.conftest import renderer_with_material
@@ -48,14 +48,24 @@ def _product_programs(sand_renderer, gl_ctx) -> dict[str, tuple[str, str]]:
     programs = {}
     for vertex, fragment in sorted(gl.compiled_programs):
         files = (vertex[0], fragment[0])
-        if any(file.startswith(BENCH_SHADERS) for file in files):
-            continue  # the benchmark's own programs
+        if not all(_product_shader(file) for file in files):
+            continue  # the benchmark's, or a test's own source
         name = f"{vertex[0]}+{fragment[0]}{dict(fragment[1])}"
         programs[name] = (
             gl.shader_text(vertex[0], dict(vertex[1]), dialect="es"),
             gl.shader_text(fragment[0], dict(fragment[1]), dialect="es"),
         )
     return programs
+
+
+def _product_shader(file: str) -> bool:
+    if file.startswith(BENCH_SHADERS):
+        return False
+    try:
+        shader_source(file)
+    except FileNotFoundError:
+        return False
+    return True
 
 
 @pytest.fixture(scope="module")
