@@ -340,11 +340,11 @@ class SandMaterial:
             return 1.0e30
         return float(b + np.log(cutoff / (1.0 - cutoff)) / a)
 
-    def bind(self, program, first_unit: int = 0) -> int:
-        """Bind the textures and set the uniforms of a program including sand_surface.glsl."""
+    def textures(self) -> dict:
+        """The sampler uniform of each texture a program including sand_surface.glsl reads."""
         if self.preset is None:
-            raise RuntimeError("SandMaterial.bind before update(preset)")
-        units = {
+            raise RuntimeError("SandMaterial.textures before update(preset)")
+        return {
             "u_albedo": self.albedo,
             "u_glint_moments": self.glint_moments,
             "u_spread_moments": self.spread_moments,
@@ -354,12 +354,12 @@ class SandMaterial:
             "u_layer_grain": self._grains.layer_grain,  # the tile's copies' borders
             "u_relief_visibility": self.relief_visibility_texture,
         }
-        # Every texture keeps its own unit whether or not a program uses it: programs sharing
-        # these bindings (a surface drawn in near and far passes) then never disagree.
-        for offset, (name, texture) in enumerate(units.items()):
-            texture.use(location=first_unit + offset)
-            set_uniform(program, name, first_unit + offset)
-        unit = first_unit + len(units)
+
+    def uniform_values(self) -> dict:
+        """Every other uniform of sand_surface.glsl the material sets, by name: what ``bind``
+        sets, and what a port of the renderer (the web export) sets the same way."""
+        if self.preset is None:
+            raise RuntimeError("SandMaterial.uniform_values before update(preset)")
         values = {spec.uniform: self.preset.get(spec.path) for spec in _SHADING_FIELDS}
         values["u_facet_size"] = self.preset.largest_facet_m * 1.0e6
         values.update(
@@ -371,12 +371,23 @@ class SandMaterial:
             u_close_cutoff=float(self.close_cutoff),
             u_close_limit=self.close_limit,
         )
-        for name, value in values.items():
-            set_uniform(program, name, value)
         alpha = self.preset.shading.facet_roughness
-        lobe = tuple(float(c) for c in lobe_row(self.lobe_correction, alpha))
-        set_uniform(program, "u_lobe_correction", lobe)
-        return unit
+        values["u_lobe_correction"] = tuple(float(c) for c in lobe_row(self.lobe_correction, alpha))
+        return values
+
+    def bind(self, program, first_unit: int = 0) -> int:
+        """Bind the textures and set the uniforms of a program including sand_surface.glsl."""
+        if self.preset is None:
+            raise RuntimeError("SandMaterial.bind before update(preset)")
+        units = self.textures()
+        # Every texture keeps its own unit whether or not a program uses it: programs sharing
+        # these bindings (a surface drawn in near and far passes) then never disagree.
+        for offset, (name, texture) in enumerate(units.items()):
+            texture.use(location=first_unit + offset)
+            set_uniform(program, name, first_unit + offset)
+        for name, value in self.uniform_values().items():
+            set_uniform(program, name, value)
+        return first_unit + len(units)
 
     def release(self) -> None:
         """Release every GL object the material made (safe to call twice)."""

@@ -33,6 +33,33 @@ from sand_editor.render.terrain import DuneTerrain
 GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the horizon
 SUN_ANGULAR_RADIUS = math.radians(0.6)  # twice the real sun: readable on small previews
 MOON_ANGULAR_RADIUS = math.radians(0.6)
+# The sky program's uniforms that never change.
+SKY_CONSTANTS = {
+    "u_ground_albedo": GROUND_ALBEDO,
+    "u_gradient_exponent": SKY_GRADIENT_EXPONENT,
+    "u_sun_radius": SUN_ANGULAR_RADIUS,
+    "u_moon_radius": MOON_ANGULAR_RADIUS,
+}
+# What of the sky the surface programs read (sky_uniforms' names).
+SURFACE_SKY = (
+    "u_sun_direction", "u_sun_radiance", "u_moon_direction", "u_moon_radiance",
+    "u_sky_irradiance",
+)  # fmt: skip
+
+
+def sky_uniforms(sky: SkyState, names=None) -> dict:
+    """The sky at one moment as the sky program's uniforms (``names``: only those)."""
+    values = {
+        "u_sun_direction": _vec(sky.sun_direction),
+        "u_sun_radiance": _vec(sky.sun_radiance),
+        "u_moon_direction": _vec(sky.moon_direction),
+        "u_moon_radiance": _vec(sky.moon_radiance),
+        "u_sky_zenith": _vec(sky.sky_zenith),
+        "u_sky_horizon": _vec(sky.sky_horizon),
+        "u_sky_irradiance": _vec(sky.sky_irradiance),
+        "u_star_visibility": float(sky.star_visibility),
+    }
+    return values if names is None else {name: values[name] for name in names}
 
 
 class SandRenderer:
@@ -189,18 +216,8 @@ class SandRenderer:
         set_matrix(prog, "u_inverse_view_projection", inverse)
         values = {
             "u_resolution": tuple(float(v) for v in self.post.size),
-            "u_sun_direction": _vec(sky.sun_direction),
-            "u_sun_radiance": _vec(sky.sun_radiance),
-            "u_moon_direction": _vec(sky.moon_direction),
-            "u_moon_radiance": _vec(sky.moon_radiance),
-            "u_sky_zenith": _vec(sky.sky_zenith),
-            "u_sky_horizon": _vec(sky.sky_horizon),
-            "u_sky_irradiance": _vec(sky.sky_irradiance),
-            "u_ground_albedo": GROUND_ALBEDO,
-            "u_star_visibility": float(sky.star_visibility),
-            "u_gradient_exponent": SKY_GRADIENT_EXPONENT,
-            "u_sun_radius": SUN_ANGULAR_RADIUS,
-            "u_moon_radius": MOON_ANGULAR_RADIUS,
+            **sky_uniforms(sky),
+            **SKY_CONSTANTS,
         }
         for name, value in values.items():
             set_uniform(prog, name, value)
@@ -244,20 +261,22 @@ class SandRenderer:
         if self.material is not None:
             self.material.bind(prog, 0)
         values = {
-            "u_mode": mode_index(mode),
-            "u_relief": int(self.relief),
-            "u_sharp_ripples": int(self.sharp_ripples),
-            "u_tile_variation": int(self.tile_variation),
+            **self.surface_switches(mode),
             "u_eye": _vec(camera.position),
-            "u_sun_direction": _vec(sky.sun_direction),
-            "u_sun_radiance": _vec(sky.sun_radiance),
-            "u_moon_direction": _vec(sky.moon_direction),
-            "u_moon_radiance": _vec(sky.moon_radiance),
-            "u_sky_irradiance": _vec(sky.sky_irradiance),
+            **sky_uniforms(sky, SURFACE_SKY),
         }
         for name, value in values.items():
             set_uniform(prog, name, value)
         self._shadows.bind(prog, self._shadow_frame)
+
+    def surface_switches(self, mode: str) -> dict:
+        """The surface programs' uniforms of the mode and the renderer's switches."""
+        return {
+            "u_mode": mode_index(mode),
+            "u_relief": int(self.relief),
+            "u_sharp_ripples": int(self.sharp_ripples),
+            "u_tile_variation": int(self.tile_variation),
+        }
 
     def _draw(self, mesh: SandMesh, camera: Camera, blended: bool) -> None:
         # Vertices are offsets from the mesh origin, and so is the eye in this matrix: small
