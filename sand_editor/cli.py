@@ -17,7 +17,7 @@ from sand_editor.untrusted import integer, number, printable, shorten
 MAX_ERROR_CHARS = 500  # one line on stderr, whatever the input held
 PROGRESS_WIDTH = 30
 MIN_PATCH_M, MAX_PATCH_M = 0.01, 1000.0
-COMMANDS = ("edit", "bake", "export", "render", "vr", "bench")
+COMMANDS = ("edit", "bake", "export", "serve", "render", "vr", "bench")
 # Each benchmark: the module of sand_editor.bench whose main() runs it, and the options it takes
 # besides --quick and --json.
 BENCHMARKS = {
@@ -33,6 +33,7 @@ BENCHMARKS = {
     "vr-runtime": ("vr_runtime", set()),
     "gpu": ("gpu", {"sizes"}),
     "export": ("export", set()),
+    "web": ("web", set()),
 }
 
 
@@ -115,17 +116,30 @@ def _cmd_bake(args) -> int:
     return 0
 
 
+def export_size(fmt: str | None, size: int | None) -> int:
+    """The texture size of an export: the one asked for, else the format's default (a glTF's
+    maps are baked larger than the material a web page draws with)."""
+    from sand_editor.generator.sizes import DEFAULT_EXPORT_SIZE, DEFAULT_RENDER_SIZE
+
+    if size is not None:
+        return size
+    return DEFAULT_RENDER_SIZE if fmt == "web" else DEFAULT_EXPORT_SIZE
+
+
 def _cmd_export(args) -> int:
     from sand_editor.export.gltf import PatchOptions
     from sand_editor.export.run import ExportSteps
     from sand_editor.generator import check_size
 
-    check_size(args.size)
+    if args.format == "web":
+        return _export_web(args)
+    size = export_size(args.format, args.size)
+    check_size(size)
     if not (math.isfinite(args.patch) and MIN_PATCH_M <= args.patch <= MAX_PATCH_M):
         raise CommandError(f"--patch {args.patch}: allowed {MIN_PATCH_M} to {MAX_PATCH_M} metres")
     preset = Preset.load(preset_path(args.preset))
     options = PatchOptions(size_m=args.patch, sphere=args.sphere)
-    steps = ExportSteps(preset, Path(args.out), args.format, args.size, options)
+    steps = ExportSteps(preset, Path(args.out), args.format, size, options)
     run_with_progress(steps)
     record = steps.record
     count = len(record["files"])
@@ -134,6 +148,31 @@ def _cmd_export(args) -> int:
         f"{record['bytes'] / 1e6:.1f} MB) to {printable(args.out)}"
     )
     return 0
+
+
+def _export_web(args) -> int:
+    from sand_editor.export.web import export_web
+    from sand_editor.generator import check_size
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CommandError(f"{out}: is not a folder; with --format web, --out names a folder")
+    size = export_size("web", args.size)
+    check_size(size)
+    preset = Preset.load(preset_path(args.preset))
+    written = export_web(preset, out, size)
+    print(
+        f"exported {preset.name} as a web page ({len(written)} files, "
+        f"{sum(written.values()) / 1e6:.1f} MB) to {printable(args.out)}; "
+        f"view it with: sand-editor serve {printable(args.out)}"
+    )
+    return 0
+
+
+def _cmd_serve(args) -> int:
+    from sand_editor.export.serve import serve
+
+    return serve(Path(args.folder), args.host, args.port)
 
 
 def _size_argument(text: str) -> tuple[int, int]:
@@ -317,19 +356,38 @@ def _parser() -> argparse.ArgumentParser:
     )
     bake.set_defaults(run=_cmd_bake)
 
-    export = sub.add_parser("export", help="write a sand patch as a glTF 2.0 asset (.glb, .gltf)")
+    export = sub.add_parser(
+        "export",
+        help="write a sand patch as a glTF 2.0 asset (.glb, .gltf), or the sand as a web page",
+    )
     export.add_argument("preset", help="preset file or bundled preset name")
-    export.add_argument("--out", required=True, help="the .glb or .gltf file to write")
-    export.add_argument("--format", choices=["glb", "gltf"], help="default: from --out's suffix")
+    export.add_argument(
+        "--out", required=True, help="the .glb or .gltf file to write (web: the folder)"
+    )
+    export.add_argument(
+        "--format",
+        choices=["glb", "gltf", "web"],
+        help="default: from --out's suffix; web: a WebGL2/WebXR page with the glints",
+    )
     export.add_argument(
         "--size",
         type=integer,
-        default=DEFAULT_EXPORT_SIZE,
-        help=size_help,
+        default=None,
+        help=f"{size_help} (default {DEFAULT_EXPORT_SIZE}; web {DEFAULT_RENDER_SIZE})",
     )
     export.add_argument("--patch", type=number, default=2.0, help="edge of the patch in metres")
     export.add_argument("--sphere", action="store_true", help="put the sand sphere on the patch")
     export.set_defaults(run=_cmd_export)
+
+    serve = sub.add_parser("serve", help="serve an exported web page on this machine")
+    serve.add_argument("folder", help="the folder export --format web wrote")
+    serve.add_argument("--port", type=integer, default=8000, help="TCP port (default 8000)")
+    serve.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to listen on (default 127.0.0.1: this machine and adb reverse only)",
+    )
+    serve.set_defaults(run=_cmd_serve)
 
     from sand_editor.render.modes import MODES
 

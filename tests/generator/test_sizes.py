@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sand_editor.cli import _parser
+from sand_editor.cli import _parser, export_size
 from sand_editor.generator import sizes
 from sand_editor.generator.shared import SIZES as SEGMENT_SIZES
 from sand_editor.vr.link import SHARED_SIZES
@@ -41,7 +41,11 @@ def test_the_command_line_offers_the_policys_sizes():
     vr = parser.parse_args(["vr"])
     assert vr.texture_size == sizes.DEFAULT_RENDER_SIZE
     assert parser.parse_args(["bake", "x", "--out", "o"]).size == sizes.DEFAULT_BAKE_SIZE
-    assert parser.parse_args(["export", "x", "--out", "o.glb"]).size == sizes.DEFAULT_EXPORT_SIZE
+    # export's default depends on the format (a glTF's maps, a web page's material)
+    assert parser.parse_args(["export", "x", "--out", "o.glb"]).size is None
+    assert export_size("glb", None) == export_size(None, None) == sizes.DEFAULT_EXPORT_SIZE
+    assert export_size("web", None) == sizes.DEFAULT_RENDER_SIZE
+    assert export_size("web", 256) == 256
     with pytest.raises(SystemExit):
         parser.parse_args(["vr", "--texture-size", str(sizes.VR_SIZES[-1] * 2)])
 
