@@ -24,10 +24,9 @@ uniform float u_facet_size;  // edge of the largest facets of a grain, µm
 // Facet edges spread log-uniformly from the preset's size down to FACET_SIZE_RANGE times smaller
 // (#defined by material.py), each octave holding an equal share of the surface, as on a
 // fractured crystal's faces. Close up the small ones sparkle in many pixels, further away the
-// large ones still outshine their pixel.
+// large ones still outshine their pixel. FACETS_PER_LARGEST (#defined by material.py, which the
+// exports' glint parameters share) is how many facets the area of one largest facet holds.
 const float FACET_AREA_RANGE = FACET_SIZE_RANGE * FACET_SIZE_RANGE;
-// Facets in the area of one largest facet: ∫ d(ln r)/(r²·ln R) over r in [1/R, 1].
-const float FACETS_PER_LARGEST = (FACET_AREA_RANGE - 1.0) / (2.0 * log(FACET_SIZE_RANGE));
 
 float facet_size_m() { return u_facet_size * 1.0e-6; }
 const float LIGHT_ANGULAR_RADIUS = 0.00465; // the sun's (and the moon's) real angular radius

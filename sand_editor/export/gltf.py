@@ -10,7 +10,8 @@ metallic-roughness model with the maps of :mod:`sand_editor.export.maps`:
   (``metallicRoughnessTexture``);
 - ``KHR_materials_ior``: the grains' index (quartz 1.458); ``KHR_materials_specular``: the share
   of mirroring facets in the alpha of ``specularTexture``;
-- the preset itself in the material's ``extras``: ``Preset.load`` reads the file back.
+- the preset itself in the material's ``extras``: ``Preset.load`` reads the file back; beside
+  it the glint model's parameters (``export/glints.py``), for a renderer that draws glints.
 
 What does not carry over: the glints (glTF has no sparkle model), the blend by distance into the
 far BRDF, the dune ripples and the backscatter of a half space of grains (see the README).
@@ -26,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pygltflib as g
 
+from sand_editor.export.glints import check_finite, glint_parameters
 from sand_editor.export.images import encode_bands
 from sand_editor.export.maps import MaterialMaps, image_band
 from sand_editor.export.sets import ENCODE_THREADS, base_color_image, normal_image, orm_image
@@ -211,6 +213,7 @@ def build_gltf(preset: Preset, maps: MaterialMaps, options: PatchOptions, image_
             "preset": preset.to_dict(),
             "albedo_scale": [round(float(c), 6) for c in maps.albedo_scale],
             "texture_size": maps.size,
+            "glints": check_finite(glint_parameters(preset, maps.specular)),
         }
     }
     tiles = options.size_m * preset.shading.uv_scale

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sand_editor.export.glints import facets_per_tile
 from sand_editor.generator import SandTextures
 from sand_editor.generator.noise import PROFILE_OFFSET, PROFILE_SCALE, NoiseConstants
 from sand_editor.preset import Preset
@@ -57,6 +58,7 @@ class MaterialMaps:
     occlusion: np.ndarray  # (n, n) 0 (hidden) to 1 (open)
     height: np.ndarray  # (n, n) 0 to 1: the grain profile over its tallest
     albedo_scale: np.ndarray  # (3,) base colour over grain albedo
+    facets_per_tile: float = 0.0  # facets of a wholly mirroring texel per tile (export/glints.py)
 
     @property
     def size(self) -> int:
@@ -66,7 +68,7 @@ class MaterialMaps:
         """These maps' rows ``band`` (views, no copies)."""
         return MaterialMaps(
             self.base_color[band], self.normal[band], self.roughness[band], self.specular[band],
-            self.occlusion[band], self.height[band], self.albedo_scale,
+            self.occlusion[band], self.height[band], self.albedo_scale, self.facets_per_tile,
         )  # fmt: skip
 
 
@@ -185,6 +187,7 @@ def material_maps(preset: Preset, textures: SandTextures) -> MaterialMaps:
         occlusion=occlusion_map(textures.height, grain_px),
         height=height,
         albedo_scale=scale,
+        facets_per_tile=facets_per_tile(preset),
     )
 
 

@@ -16,6 +16,7 @@ from functools import partial
 
 import numpy as np
 
+from sand_editor.export.glints import log_density
 from sand_editor.export.images import FORMATS, encode_bands, linear_to_srgb8
 from sand_editor.export.maps import MaterialMaps, image_band
 from sand_editor.files import file_stem
@@ -47,6 +48,7 @@ class _Map:
     make: Callable[[MaterialMaps], np.ndarray]
     what: str  # for the README
     deep: str = ""  # "normal" or "height": its format follows MapFormats
+    fixed: str = ""  # a format it always has (a map of unbounded floats: "exr")
 
 
 def normal_image(y_sign: float) -> Callable[[MaterialMaps], np.ndarray]:
@@ -130,12 +132,20 @@ _SETS: dict[str, tuple[list[_Map], str]] = {
             ),
             _Map("ORM", orm_image, "R ambient occlusion, G roughness, B metallic (0)"),
             _HEIGHT,
+            _Map(
+                "GlintValue",
+                lambda maps: log_density(maps.specular, maps.facets_per_tile),
+                "Substrate GlintValue: ln of mirroring facets per unit of the tile's UV area",
+                fixed="exr",
+            ),
         ],
         "Unreal Engine material: Base Color = BaseColor; Normal = Normal (compression "
         "Normalmap); ORM with sRGB off and compression Masks: R → Ambient Occlusion, "
         "G → Roughness, B → Metallic; Height for displacement or parallax. Specular = "
         "{unreal_specular:.2f} (Unreal's 0.5 is F0 = 0.04; the grains' index {ior} gives "
-        "F0 = {f0:.3f}).",
+        "F0 = {f0:.3f}). Glints (Substrate, r.Substrate.Glints=1): a Substrate Slab's "
+        "Glint Value = GlintValue (float EXR, sRGB off, no compression: HDR), Glint UV = "
+        "TexCoord[0] (one tile per UV unit), Roughness as above.",
     ),
     "godot": (
         [
@@ -169,7 +179,9 @@ def texture_set(
     entries, how = _SETS[target]
     files: dict[str, bytes] = {}
     lines = []
-    chosen = [getattr(formats, entry.deep) if entry.deep else "png8" for entry in entries]
+    chosen = [
+        entry.fixed or (getattr(formats, entry.deep) if entry.deep else "png8") for entry in entries
+    ]
     # The encoders spend their time in zlib, which lets other threads run: one map per core.
     with ThreadPoolExecutor(max_workers=ENCODE_THREADS) as pool:
         encoded = list(pool.map(partial(_encode_map, maps), entries, chosen))

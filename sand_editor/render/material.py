@@ -59,6 +59,16 @@ HOLE_SCALE2 = 0.25
 # Facet edges spread log-uniformly from the preset's facet size down to this many times smaller
 # (shaders/glint_facets.glsl).
 FACET_SIZE_RANGE = 4.0
+
+
+def facets_per_largest(size_range: float = FACET_SIZE_RANGE) -> float:
+    """Facets in the area of one largest facet, their edges spread log-uniformly over
+    ``size_range`` with each octave holding an equal share of the surface:
+    ∫ d(ln r)/(r²·ln R) over r in [1/R, 1] = (R² − 1)/(2 ln R)."""
+    return (size_range * size_range - 1.0) / (2.0 * float(np.log(size_range)))
+
+
+FACETS_PER_LARGEST = facets_per_largest()
 # The mip level whose clear-grain slopes measure the facet lobe's correction (facet_lobe.py).
 LOBE_LEVEL = 2
 # The grains' mean shadowing table (relief_visibility.frag): light cosines, eye cosines and
@@ -69,6 +79,7 @@ RELIEF_SAMPLES = 192
 SHADER_DEFINES = {
     "HOLE_SCALE2": repr(HOLE_SCALE2),
     "FACET_SIZE_RANGE": repr(FACET_SIZE_RANGE),
+    "FACETS_PER_LARGEST": repr(FACETS_PER_LARGEST),
     # The tallest a grain's profile gets: the top of the relief (material_build.frag).
     "PROFILE_TOP": repr(PROFILE_OFFSET + PROFILE_SCALE),
     "LAYER_COLOURS": MAX_LAYERS * 4,

@@ -170,6 +170,7 @@ def test_bake_target_writes_the_set_and_a_stopped_one_nothing(gl_ctx, tmp_path, 
     assert sorted(p.name for p in (tmp_path / "set").iterdir()) == [
         "README.txt",
         "black-volcanic_BaseColor.png",
+        "black-volcanic_GlintValue.exr",
         "black-volcanic_Height.png",
         "black-volcanic_Normal.exr",
         "black-volcanic_ORM.png",

@@ -16,7 +16,7 @@ from sand_editor.gl import (
     shader_source,
     shader_text,
 )
-from sand_editor.render.material import FACET_SIZE_RANGE
+from sand_editor.render.material import FACET_SIZE_RANGE, FACETS_PER_LARGEST
 
 pytestmark = pytest.mark.gl
 
@@ -26,7 +26,7 @@ LAMBDA = 1.0  # mirroring facets' area a patch holds on average, in largest face
 # Facets by number per largest facet's area, and the mean square of one's area (1/r² uniform in
 # [1, R²] by number: glint_facets.glsl).
 R2 = FACET_SIZE_RANGE**2
-PER_LARGEST = (R2 - 1.0) / (2.0 * np.log(FACET_SIZE_RANGE))
+PER_LARGEST = FACETS_PER_LARGEST
 AREA_SQUARED = 1.0 / R2
 
 _MAIN = """
@@ -52,6 +52,7 @@ def _counts(ctx, patch_texels: float, mean_area: float = LAMBDA) -> np.ndarray:
         f"#define CELLS {CELLS}\n#define TEXTURE_SIZE {TEXTURE_SIZE}\n"
         f"#define LAMBDA {mean_area!r}\n"
         f"#define FACET_SIZE_RANGE {FACET_SIZE_RANGE!r}\n"
+        f"#define FACETS_PER_LARGEST {FACETS_PER_LARGEST!r}\n"
     )
     fragment = (
         "#version 330 core\n"
