@@ -33,6 +33,8 @@ from sand_editor.render.post import BLOOM_LEVELS, UPSAMPLE_RADIUS
 from sand_editor.render.renderer import SKY_CONSTANTS, SURFACE_SKY, SandRenderer, sky_uniforms
 from sand_editor.render.sky import sky_at
 from sand_editor.render.terrain import DuneTerrain
+from sand_editor.vr.actions import SCRUB_HOURS_PER_S, STICK_DEAD_ZONE
+from sand_editor.vr.locomotion import SNAP_TURN_DEG, STICK_ENGAGE, STICK_RELEASE
 
 VIEWER_DIR = Path(__file__).resolve().parent / "web_viewer"
 VIEWER_FILES = ("index.html", "sand-viewer.js")
@@ -44,6 +46,11 @@ SKY_STEP_MINUTES = 10
 # meshes anywhere a standing viewer looks.
 TERRAIN_INNER_M = 1.0 / 256.0
 TERRAIN_SEGMENTS = 96
+# Walking in VR: within this radius of the origin, where the dunes' rings are fine enough that
+# the ground the page stands you on (its heights, sampled from the terrain) is the ground drawn.
+WALK_RADIUS_M = 40.0
+WALK_SPEED_M_S = 1.4  # at full stick
+HEIGHT_SAMPLES = 161  # per edge of the walkable square: 0.5 m apart
 _VERTEX_ATTRIBUTES = (("a_position", 3), ("a_normal", 3), ("a_tangent", 3), ("a_uv", 2))
 # moderngl texture dtype and components → WebGL2 (internal format, format, type, typed array).
 _WEB_FORMATS = {
@@ -148,6 +155,26 @@ def terrain_entry(terrain: DuneTerrain) -> tuple[dict, bytes, bytes]:
     return entry, vertices.tobytes(), indices.tobytes()
 
 
+def locomotion_entry(terrain: DuneTerrain) -> tuple[dict, bytes]:
+    """How the page moves a headset about, with the VR viewer's own stick thresholds, and the
+    ground's heights over the walkable square (rows along z, columns along x, float32)."""
+    axis = np.linspace(-WALK_RADIUS_M, WALK_RADIUS_M, HEIGHT_SAMPLES)
+    z, x = np.meshgrid(axis, axis, indexing="ij")
+    heights = np.asarray(terrain.height(x, z), dtype=np.float32)
+    entry = {
+        "heights": "terrain-heights.bin",
+        "samples": HEIGHT_SAMPLES,
+        "walk_radius_m": WALK_RADIUS_M,
+        "walk_speed_m_s": WALK_SPEED_M_S,
+        "snap_turn_deg": SNAP_TURN_DEG,
+        "stick_engage": STICK_ENGAGE,
+        "stick_release": STICK_RELEASE,
+        "dead_zone": STICK_DEAD_ZONE,
+        "scrub_hours_per_s": SCRUB_HOURS_PER_S,
+    }
+    return entry, heights.tobytes()
+
+
 def sky_table(step_minutes: int = SKY_STEP_MINUTES) -> list[dict]:
     """The sky every ``step_minutes`` from midnight to midnight (both ends), with the light's
     exposure, as the sky and surface programs' uniforms."""
@@ -179,6 +206,8 @@ def scene_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) ->
         terrain, vertices, indices = terrain_entry(renderer.terrain)
         files[terrain["vertices"]] = vertices
         files[terrain["indices"]] = indices
+        locomotion, heights = locomotion_entry(renderer.terrain)
+        files[locomotion["heights"]] = heights
         uniforms = {
             name: list(value) if isinstance(value, tuple) else value
             for name, value in material.uniform_values().items()
@@ -191,6 +220,7 @@ def scene_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) ->
             "material": {"uniforms": uniforms, "textures": textures},
             "surface": {"switches": renderer.surface_switches("full"), "sky": list(SURFACE_SKY)},
             "terrain": terrain,
+            "locomotion": locomotion,
             "sky": {
                 "constants": {
                     n: list(v) if isinstance(v, tuple) else v for n, v in SKY_CONSTANTS.items()

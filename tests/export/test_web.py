@@ -5,6 +5,7 @@ WebXR emulator."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import threading
 import urllib.error
@@ -24,7 +25,9 @@ from sand_editor.export.web import SCENE_FILE, VIEWER_DIR, VIEWER_FILES, export_
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.sky import sky_at
+from sand_editor.render.terrain import DuneTerrain
 from sand_editor.resources import bundled_preset
+from sand_editor.vr.locomotion import SNAP_TURN_DEG
 
 pytestmark = pytest.mark.gl
 SMALL = 128  # texels per tile edge of the material in the quick tests
@@ -106,6 +109,16 @@ def test_the_day_and_the_dunes_are_whole(site):
     assert np.isfinite(positions).all()
     for name in VIEWER_FILES:
         assert (site / name).read_bytes() == (VIEWER_DIR / name).read_bytes()
+    # Where VR walks: the terrain's own heights, and the VR viewer's stick thresholds.
+    walk = scene["locomotion"]
+    n, radius = walk["samples"], walk["walk_radius_m"]
+    heights = np.fromfile(site / walk["heights"], dtype=np.float32).reshape(n, n)
+    axis = np.linspace(-radius, radius, n)
+    terrain = DuneTerrain()
+    for row, column in ((0, 0), (n // 2, n // 3), (n - 1, n - 1)):
+        expected = terrain.height(axis[column], axis[row])
+        assert heights[row, column] == pytest.approx(float(expected), abs=1e-5)
+    assert walk["snap_turn_deg"] == SNAP_TURN_DEG
 
 
 def test_export_web_on_the_command_line_and_its_refusals(tmp_path, capsys):
@@ -186,7 +199,7 @@ def test_the_page_draws_what_the_renderer_draws(name, root, gl_ctx, tmp_path):
 
 
 @pytest.mark.slow
-def test_the_page_enters_vr_and_draws_both_eyes(root, site):
+def test_the_page_enters_vr_draws_both_eyes_and_moves_with_the_sticks(root, site):
     _require_chromium(root)
     posts = run_page(
         "/webxr.html",
@@ -210,3 +223,12 @@ def test_the_page_enters_vr_and_draws_both_eyes(root, site):
     for eye in info["eyes"]:
         assert 20 < np.mean(eye["mean"]) < 250  # drawn: neither black nor blown out
     assert info["gl_error"] == 0 and info["console"] == []
+    # The sticks: the right one walked where the head looks (north, −z), then turned once by
+    # the VR viewer's snap angle; the left one took the day back.
+    start, walked, turned, scrubbed = info["states"]
+    assert walked["z"] < start["z"] - 1.0 and abs(walked["x"]) < 1e-6
+    assert turned["yaw"] == pytest.approx(-math.radians(SNAP_TURN_DEG))
+    assert 1.0 < turned["hours"] - scrubbed["hours"] < 16.0
+    # Standing on the sand wherever it walked to.
+    eye_height = info["eyes"][0]["position"][1] - info["ground_below_eye"]
+    assert 1.0 < eye_height < 2.0

@@ -370,6 +370,7 @@ export class SandViewer {
         const root = base.endsWith('/') ? base : `${base}/`;
         const scene = await fetchChecked(`${root}scene.json`, 'json');
         const files = new Set([scene.terrain.vertices, scene.terrain.indices,
+                               scene.locomotion.heights,
                                ...scene.material.textures.map((t) => t.file)]);
         const buffers = new Map(await Promise.all(
             [...files].map(async (file) => [file, await fetchChecked(root + file, 'buffer')])));
@@ -400,6 +401,8 @@ export class SandViewer {
         this.terrain = this.makeTerrain(buffers);
         this.post = new PostChain(gl, this.programs, scene.post);
         this.skyVao = gl.createVertexArray();
+        this.heights = new Float32Array(buffers.get(scene.locomotion.heights));
+        this.onTimeChange = null;  // called with the hours when VR's stick scrubs the day
         this.setTime(10);
         this.xrFrames = 0;
         this.session = null;
@@ -553,6 +556,23 @@ export class SandViewer {
         return pixels;
     }
 
+    // The ground's height at (x, z), bilinear in the exported heights (within the walkable
+    // square; its edge beyond).
+    groundHeight(x, z) {
+        const { samples: n, walk_radius_m: r } = this.scene.locomotion;
+        const toGrid = (v) => Math.min(Math.max(((v + r) / (2 * r)) * (n - 1), 0), n - 1.000001);
+        const gx = toGrid(x);
+        const gz = toGrid(z);
+        const x0 = Math.floor(gx);
+        const z0 = Math.floor(gz);
+        const fx = gx - x0;
+        const fz = gz - z0;
+        const h = (i, j) => this.heights[j * n + i];
+        const top = h(x0, z0) * (1 - fx) + h(x0 + 1, z0) * fx;
+        const bottom = h(x0, z0 + 1) * (1 - fx) + h(x0 + 1, z0 + 1) * fx;
+        return top * (1 - fz) + bottom * fz;
+    }
+
     // ---- WebXR --------------------------------------------------------------------------------
 
     static async vrSupported() {
@@ -580,13 +600,72 @@ export class SandViewer {
             space = await session.requestReferenceSpace('local');
             floor = 1.6;  // a 'local' space starts at the eyes: put them at standing height
         }
-        // The headset's space → the world: its floor on the ground at the origin.
-        this.xrOffset = [0, this.terrain.origin[1] + floor, 0];
+        // The headset's space → the world: turned by yaw about +y, its floor on the ground at
+        // (x, z); the sticks walk and turn it (see moveXR).
+        this.xrFloor = floor;
+        this.xr = { x: 0, z: 0, yaw: 0, turnArmed: true, lastTime: null };
         this.session = session;
         this.xrSpace = space;
         session.addEventListener('end', () => { this.session = null; });
         session.requestAnimationFrame((t, frame) => this.onXRFrame(t, frame));
         return session;
+    }
+
+    // The world from the headset's space: T(x, ground + floor, z) · Ry(yaw), column-major.
+    worldFromHeadset() {
+        const { x, z, yaw } = this.xr;
+        const c = Math.cos(yaw);
+        const s = Math.sin(yaw);
+        const m = mat4.identity();
+        m[0] = c; m[2] = -s; m[8] = s; m[10] = c;
+        m[12] = x;
+        m[13] = this.groundHeight(x, z) + this.xrFloor;
+        m[14] = z;
+        return m;
+    }
+
+    // The sticks, as the VR viewer's: left sideways scrubs the day, right sideways snap-turns,
+    // right forward and back walks where the head looks.
+    moveXR(time, frame, pose) {
+        const xr = this.xr;
+        const loco = this.scene.locomotion;
+        const dt = xr.lastTime === null ? 0 : Math.min(Math.max((time - xr.lastTime) / 1000, 0), 0.1);
+        xr.lastTime = time;
+        for (const source of frame.session.inputSources) {
+            const pad = source.gamepad;
+            if (!pad || pad.axes.length < 4) continue;
+            const sx = pad.axes[2];
+            const sy = pad.axes[3];
+            if (source.handedness === 'left' && Math.abs(sx) > loco.dead_zone) {
+                this.setTime((((this.hours + sx * loco.scrub_hours_per_s * dt) % 24) + 24) % 24);
+                if (this.onTimeChange) this.onTimeChange(this.hours);
+            }
+            if (source.handedness !== 'right') continue;
+            if (xr.turnArmed && Math.abs(sx) > loco.stick_engage) {
+                xr.yaw -= Math.sign(sx) * (loco.snap_turn_deg * Math.PI) / 180;
+                xr.turnArmed = false;
+            } else if (Math.abs(sx) < loco.stick_release) {
+                xr.turnArmed = true;
+            }
+            if (Math.abs(sy) > loco.dead_zone) {
+                // The head's forward (−z of its pose) on the ground, turned into the world.
+                const q = pose.transform.orientation;
+                const fx = -2 * (q.x * q.z + q.w * q.y);
+                const fz = -(1 - 2 * (q.x * q.x + q.y * q.y));
+                const length = Math.hypot(fx, fz);
+                if (length > 1e-6) {
+                    const c = Math.cos(xr.yaw);
+                    const s = Math.sin(xr.yaw);
+                    const wx = (c * fx + s * fz) / length;
+                    const wz = (-s * fx + c * fz) / length;
+                    const step = -sy * loco.walk_speed_m_s * dt;
+                    xr.x += wx * step;
+                    xr.z += wz * step;
+                    const out = Math.hypot(xr.x, xr.z) / loco.walk_radius_m;
+                    if (out > 1) { xr.x /= out; xr.z /= out; }
+                }
+            }
+        }
     }
 
     onXRFrame(time, frame) {
@@ -595,21 +674,24 @@ export class SandViewer {
         session.requestAnimationFrame((t, f) => this.onXRFrame(t, f));
         const pose = frame.getViewerPose(this.xrSpace);
         if (!pose) return;
+        this.moveXR(time, frame, pose);
         const layer = session.renderState.baseLayer;
-        const toHeadset = mat4.translation(...this.xrOffset.map((v) => -v));
+        const world = this.worldFromHeadset();
+        const toHeadset = mat4.invert(world);
         const views = [];
         for (const view of pose.views) {
             const viewport = layer.getViewport(view);
             if (!(viewport.width >= 1 && viewport.height >= 1)) continue;  // an eye not shown
             const p = view.transform.position;
+            const eye = mat4.multiply(world, mat4.translation(p.x, p.y, p.z)).slice(12, 15);
             const camera = {
                 view: mat4.multiply(Float64Array.from(view.transform.inverse.matrix), toHeadset),
                 projection: Float64Array.from(view.projectionMatrix),
-                eye: [p.x + this.xrOffset[0], p.y + this.xrOffset[1], p.z + this.xrOffset[2]],
+                eye: Array.from(eye),
             };
             const rect = [viewport.x, viewport.y, viewport.width, viewport.height];
             this.drawFrame(camera, layer.framebuffer, rect);
-            views.push({ eye: view.eye, viewport: rect });
+            views.push({ eye: view.eye, viewport: rect, position: camera.eye });
         }
         this.xrFrames += 1;
         if (this.afterXRFrame) this.afterXRFrame(layer, views);
