@@ -237,6 +237,8 @@ class StdioLink:
         self._write_lock = threading.Lock()
         self.closed = False
         self.broken: str | None = None
+        # Set by the reader at "quit" or at EOF: the start-up, which polls nothing, asks it.
+        self.quit_asked = False
         self._reader = threading.Thread(target=self._read, name="vr-link-reader", daemon=True)
         self._reader.start()
 
@@ -256,13 +258,18 @@ class StdioLink:
                 if not line.strip():
                     continue
                 try:
-                    self._messages.put(decode(line))
+                    message = decode(line)
                 except LinkError as exc:
                     self._messages.put(exc)
+                    continue
+                self._messages.put(message)
+                if message.get("type") == "quit":
+                    self.quit_asked = True
         except BaseException as exc:  # noqa: BLE001 - reported by the frame loop, not lost
             self.broken = f"{type(exc).__name__}: {exc}"
         finally:
             self.closed = True
+            self.quit_asked = True  # EOF means quit
 
     def poll(self) -> list[dict | LinkError]:
         received = []
@@ -289,6 +296,7 @@ class NullLink:
 
     closed = False
     broken = None
+    quit_asked = False
 
     def poll(self) -> list[dict]:
         return []

@@ -48,6 +48,8 @@ MAX_FRAME_STEP_S = 0.25  # a stalled frame does not make the day jump
 SESSION_NOTICE_S = 10.0  # waiting this long for the session to run: tell the user
 SESSION_TIMEOUT_S = 60.0  # ... and give up with --frames (tests, support runs)
 WARM_UP_FRAMES = 50  # the report's resource counts are taken here and at the end
+START_TIMEOUT_S = 120.0  # the first grains must come within this
+START_POLL_S = 0.05  # ... and the start-up looks for the editor's "quit" this often
 
 
 @dataclass
@@ -105,16 +107,26 @@ class FrameLoop:
 
     # ---- start and end -------------------------------------------------------------------
 
-    def start(self) -> None:
-        """The first material, made before the first frame (a frame needs grains)."""
+    def start(self) -> bool:
+        """The first material, made before the first frame (a frame needs grains). False when
+        the editor asked the viewer to quit meanwhile (it reads no messages until the loop
+        runs): there is nothing to run then."""
         self.worker.request(self.presets[0][1])
-        ready = self.worker.wait(timeout_s=120)
+        deadline = time.monotonic() + START_TIMEOUT_S
+        ready = None
+        while ready is None and time.monotonic() < deadline:
+            if self.link.quit_asked:
+                return False
+            ready = self.worker.wait(timeout_s=START_POLL_S)
         if ready is None or ready.material is None:
             reason = "timed out" if ready is None else ready.error
             raise RuntimeError(f"could not make the grain textures: {reason}")
         self._show(ready.material, ready.preset)
+        if self.link.quit_asked:
+            return False
         self._warm_up()
         self._builds_before_loop = self.renderer.terrain_meshes_built
+        return True
 
     def _warm_up(self) -> None:
         """Draw once off screen: compiling programs and the rasterizer's first draws take

@@ -38,9 +38,9 @@ def run_viewer(
     try:
         backend = _desktop_backend(render_scale) if desktop else _xr_backend(render_scale)
         loop = FrameLoop(backend, backend.windows, link, options)
-        loop.start()
-        with _stopping_on_signals(loop):
-            loop.run()
+        if loop.start():
+            with _stopping_on_signals(loop):
+                loop.run()
         if loop.stop_requested:
             status = EXIT_INTERRUPTED
             loop.stats.errors.append("interrupted")

@@ -88,6 +88,27 @@ def test_reader_queues_messages_and_sees_eof():
     _wait_for(lambda: stdio.closed)
 
 
+def test_the_start_up_sees_a_quit_or_an_eof_without_polling():
+    # The viewer reads no messages while it starts; it asks quit_asked instead.
+    read_fd, write_fd = os.pipe()
+    writer = os.fdopen(write_fd, "w", encoding="utf-8")
+    stdio = StdioLink(os.fdopen(read_fd, "r", encoding="utf-8"), io.StringIO())
+    writer.write(encode("mode", mode="lambert"))
+    writer.flush()
+    time.sleep(0.2)
+    assert not stdio.quit_asked  # other messages are not a quit
+    writer.write(encode("quit"))
+    writer.flush()
+    _wait_for(lambda: stdio.quit_asked)
+    assert not stdio.closed
+    assert [m["type"] for m in stdio.poll()] == ["mode", "quit"]  # still queued for the loop
+    writer.close()
+    read_fd, write_fd = os.pipe()
+    os.close(write_fd)  # the editor went away: EOF
+    eof = StdioLink(os.fdopen(read_fd, "r", encoding="utf-8"), io.StringIO())
+    _wait_for(lambda: eof.quit_asked and eof.closed)
+
+
 def test_send_is_one_whole_line_per_message_from_many_threads():
     out = io.StringIO()
     stdio = StdioLink(io.StringIO(""), out)
