@@ -262,3 +262,24 @@ def run_page(
         server.shutdown()
         server.server_close()
         shutil.rmtree(profile, ignore_errors=True)
+
+
+def screenshot(url: str, size: tuple[int, int], budget_ms: int = 30000, timeout_s: float = 180):
+    """A PNG of ``url`` in headless Chromium after ``budget_ms`` of the page's (virtual) time,
+    and what its console said: (png bytes, console lines)."""
+    profile = Path(tempfile.mkdtemp(prefix="sand-editor-chromium-"))
+    out = profile / "page.png"
+    try:
+        result = subprocess.run(
+            [CHROMIUM, *CHROMIUM_FLAGS, f"--user-data-dir={profile / 'profile'}",
+             f"--window-size={size[0]},{size[1]}", f"--virtual-time-budget={budget_ms}",
+             f"--screenshot={out}", url],
+            capture_output=True, text=True, timeout=timeout_s, check=False,
+            stdin=subprocess.DEVNULL,
+        )  # fmt: skip
+        console = [line for line in result.stderr.splitlines() if "CONSOLE" in line]
+        if not out.is_file():
+            raise RuntimeError(f"Chromium wrote no screenshot of {url}: {result.stderr[-2000:]}")
+        return out.read_bytes(), console
+    finally:
+        shutil.rmtree(profile, ignore_errors=True)

@@ -4,6 +4,7 @@ WebXR emulator."""
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -14,10 +15,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from sand_editor import gl
 from sand_editor.bench import web as web_bench
-from sand_editor.bench.browser import CHROMIUM, JS_TOOLS, run_page
+from sand_editor.bench.browser import CHROMIUM, JS_TOOLS, run_page, screenshot
 from sand_editor.bench.sweep import random_preset
 from sand_editor.cli import main
 from sand_editor.export.serve import make_server
@@ -232,3 +234,22 @@ def test_the_page_enters_vr_draws_both_eyes_and_moves_with_the_sticks(root, site
     # Standing on the sand wherever it walked to.
     eye_height = info["eyes"][0]["position"][1] - info["ground_below_eye"]
     assert 1.0 < eye_height < 2.0
+
+
+@pytest.mark.slow
+def test_the_page_a_user_opens_shows_the_sand(root, site):
+    _require_chromium(root)
+    server = make_server(site, "127.0.0.1", 0)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        url = f"http://127.0.0.1:{server.server_address[1]}/"
+        png, console = screenshot(url, (640, 360))
+    finally:
+        server.shutdown()
+        server.server_close()
+    assert not [line for line in console if "rror" in line], console
+    image = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.float64)
+    sky, ground = image[5:30, 400:600], image[200:300, 420:620]  # beside the panel
+    assert sky[..., 2].mean() > sky[..., 0].mean()  # a blue sky
+    assert ground[..., 0].mean() > ground[..., 2].mean() + 20  # red-desert's sand, lit
+    assert ground.std() > 2.0  # grains and ripples, not a flat fill
