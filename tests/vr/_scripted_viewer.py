@@ -25,6 +25,7 @@ from sand_editor.vr.xrmath import Pose
 
 class RecordingLink:
     closed = False
+    quit_asked = False
 
     def __init__(self):
         self.sent = []
