@@ -27,6 +27,15 @@ _TYPES = {
 class _Handler(SimpleHTTPRequestHandler):
     extensions_map = {**SimpleHTTPRequestHandler.extensions_map, **_TYPES}
 
+    def send_head(self):
+        # A path the file system cannot take (an encoded NUL, an over-long name) is not found:
+        # answered, not a traceback and a dropped connection.
+        try:
+            return super().send_head()
+        except (ValueError, OSError):
+            self.send_error(404, "not found")
+            return None
+
     def list_directory(self, path):  # noqa: ARG002 (the base class's signature)
         self.send_error(404, "no listings")
         return None

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from PIL import Image
 
 from sand_editor import gl
@@ -253,3 +255,41 @@ def test_the_page_a_user_opens_shows_the_sand(root, site):
     assert sky[..., 2].mean() > sky[..., 0].mean()  # a blue sky
     assert ground[..., 0].mean() > ground[..., 2].mean() + 20  # red-desert's sand, lit
     assert ground.std() > 2.0  # grains and ripples, not a flat fill
+
+
+@pytest.fixture(scope="module")
+def served(site):
+    """The exported page on a server of its own for the module's requests: (host, port)."""
+    server = make_server(site, "127.0.0.1", 0)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    yield server.server_address
+    server.shutdown()
+    server.server_close()
+
+
+@settings(
+    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(path=st.one_of(
+    st.text(max_size=40),
+    st.lists(st.sampled_from(["..", ".", "%2e%2e", "%2f", "scene.json", "etc", "passwd", "",
+                              "index.html", "%00", "\\", "~"]), max_size=6).map("/".join),
+))  # fmt: skip
+def test_fuzzed_request_paths_get_a_file_of_the_page_or_an_error(site, served, path):
+    import http.client
+    from urllib.parse import quote
+
+    files = {p.read_bytes() for p in site.iterdir()}
+    host, port = served
+    connection = http.client.HTTPConnection(host, port, timeout=10)
+    try:
+        target = "/" + quote(path, safe="/%.~")
+        connection.request("GET", target)
+        response = connection.getresponse()
+        body = response.read()
+        assert response.status in (200, 301, 400, 404), (target, response.status)
+        if response.status == 200:
+            assert body in files, target  # only the page's own files
+    finally:
+        connection.close()
+    assert _get(f"http://{host}:{port}/scene.json")[0] == 200  # and it serves on
