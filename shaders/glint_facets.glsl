@@ -29,7 +29,7 @@ uniform float u_facet_size;  // edge of the largest facets of a grain, µm
 const float FACET_AREA_RANGE = FACET_SIZE_RANGE * FACET_SIZE_RANGE;
 
 float facet_size_m() { return u_facet_size * 1.0e-6; }
-const float LIGHT_ANGULAR_RADIUS = 0.00465; // the sun's (and the moon's) real angular radius
+// LIGHT_ANGULAR_RADIUS (#defined by material.py): the sun's (and the moon's) real angular radius.
 
 // Half vectors spanned by a light disc of angular radius r around the mirror direction have
 // angular radius r/2; slopes stretch angles by 1 + |b|² about slope b (as the lobe's width does).

@@ -23,10 +23,12 @@ import math
 import numpy as np
 
 from sand_editor.preset import Preset
-from sand_editor.render.material import FACET_SIZE_RANGE, FACETS_PER_LARGEST
+from sand_editor.render.material import (
+    FACET_SIZE_RANGE,
+    FACETS_PER_LARGEST,
+    LIGHT_ANGULAR_RADIUS,
+)
 
-LIGHT_ANGULAR_RADIUS = 0.00465  # the sun's, radians: a facet mirrors it while the half vector
-# stays within half of it (shaders/glint_facets.glsl)
 GLINT_MODEL = "sand-editor facets 1"
 
 

@@ -69,6 +69,9 @@ def facets_per_largest(size_range: float = FACET_SIZE_RANGE) -> float:
 
 
 FACETS_PER_LARGEST = facets_per_largest()
+# The real angular radius of the sun (and the moon), radians: a facet mirrors it while the half
+# vector stays within half of it (shaders/glint_facets.glsl; the exports' glint parameters).
+LIGHT_ANGULAR_RADIUS = 0.00465
 # The mip level whose clear-grain slopes measure the facet lobe's correction (facet_lobe.py).
 LOBE_LEVEL = 2
 # The grains' mean shadowing table (relief_visibility.frag): light cosines, eye cosines and
@@ -80,6 +83,7 @@ SHADER_DEFINES = {
     "HOLE_SCALE2": repr(HOLE_SCALE2),
     "FACET_SIZE_RANGE": repr(FACET_SIZE_RANGE),
     "FACETS_PER_LARGEST": repr(FACETS_PER_LARGEST),
+    "LIGHT_ANGULAR_RADIUS": repr(LIGHT_ANGULAR_RADIUS),
     # The tallest a grain's profile gets: the top of the relief (material_build.frag).
     "PROFILE_TOP": repr(PROFILE_OFFSET + PROFILE_SCALE),
     "LAYER_COLOURS": MAX_LAYERS * 4,

@@ -16,7 +16,11 @@ from sand_editor.gl import (
     shader_source,
     shader_text,
 )
-from sand_editor.render.material import FACET_SIZE_RANGE, FACETS_PER_LARGEST
+from sand_editor.render.material import (
+    FACET_SIZE_RANGE,
+    FACETS_PER_LARGEST,
+    LIGHT_ANGULAR_RADIUS,
+)
 
 pytestmark = pytest.mark.gl
 
@@ -53,6 +57,7 @@ def _counts(ctx, patch_texels: float, mean_area: float = LAMBDA) -> np.ndarray:
         f"#define LAMBDA {mean_area!r}\n"
         f"#define FACET_SIZE_RANGE {FACET_SIZE_RANGE!r}\n"
         f"#define FACETS_PER_LARGEST {FACETS_PER_LARGEST!r}\n"
+        f"#define LIGHT_ANGULAR_RADIUS {LIGHT_ANGULAR_RADIUS!r}\n"
     )
     fragment = (
         "#version 330 core\n"
