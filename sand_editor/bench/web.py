@@ -135,14 +135,13 @@ def compare(preset: Preset, ctx, distances=DISTANCES, time_text=TIME, folder=Non
     from sand_editor.bench.sweep import sparkle_share
 
     cameras = views(distances, time_text)
+    variants = {"lit": preset, "plain": plain(preset)}
+    page = {}
     with tempfile.TemporaryDirectory(prefix="sand-web-", dir=folder) as tmp:
-        sites = {}
-        for kind, variant in (("lit", preset), ("plain", plain(preset))):
-            sites[kind] = Path(tmp) / kind
-            export_web(variant, sites[kind], TEXTURE_SIZE, ctx=ctx)
-        page = {kind: page_frames(site, cameras) for kind, site in sites.items()}
-    ours = {kind: renderer_frames(ctx, variant, cameras)
-            for kind, variant in (("lit", preset), ("plain", plain(preset)))}  # fmt: skip
+        for kind, variant in variants.items():
+            export_web(variant, Path(tmp) / kind, TEXTURE_SIZE, ctx=ctx)
+            page[kind] = page_frames(Path(tmp) / kind, cameras)
+    ours = {kind: renderer_frames(ctx, variant, cameras) for kind, variant in variants.items()}
     rows = []
     for i, distance in enumerate(distances):
         web_lit, web_plain = page["lit"]["frames"][i], page["plain"]["frames"][i]

@@ -181,12 +181,9 @@ def sky_table(step_minutes: int = SKY_STEP_MINUTES) -> list[dict]:
     table = []
     for minute in range(0, 24 * 60 + 1, step_minutes):
         sky = sky_at(minute / 60.0)
-        entry = {"hours": minute / 60.0, "exposure": light_exposure(sky)}
-        entry["uniforms"] = {
-            name: list(value) if isinstance(value, tuple) else value
-            for name, value in sky_uniforms(sky).items()
-        }
-        table.append(entry)
+        table.append(
+            {"hours": minute / 60.0, "exposure": light_exposure(sky), "uniforms": sky_uniforms(sky)}
+        )
     return table
 
 
@@ -208,31 +205,23 @@ def scene_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) ->
         files[terrain["indices"]] = indices
         locomotion, heights = locomotion_entry(renderer.terrain)
         files[locomotion["heights"]] = heights
-        uniforms = {
-            name: list(value) if isinstance(value, tuple) else value
-            for name, value in material.uniform_values().items()
-        }
         scene = {
             "version": SCENE_VERSION,
             "preset": preset.name,
             "preset_document": preset.to_dict(),
             "programs": programs(),
-            "material": {"uniforms": uniforms, "textures": textures},
+            "material": {"uniforms": material.uniform_values(), "textures": textures},
             "surface": {"switches": renderer.surface_switches("full"), "sky": list(SURFACE_SKY)},
             "terrain": terrain,
             "locomotion": locomotion,
-            "sky": {
-                "constants": {
-                    n: list(v) if isinstance(v, tuple) else v for n, v in SKY_CONSTANTS.items()
-                },
-                "table": sky_table(),
-            },
+            "sky": {"constants": SKY_CONSTANTS, "table": sky_table()},
             "post": {
                 "bloom_levels": BLOOM_LEVELS,
                 "bloom_strength": renderer.bloom_strength,
                 "upsample_radius": UPSAMPLE_RADIUS,
             },
         }
+        # JSON writes the uniforms' tuples as arrays, and refuses a NaN or inf outright.
         files[SCENE_FILE] = json.dumps(scene, separators=(",", ":"), allow_nan=False).encode()
         return files
     finally:
