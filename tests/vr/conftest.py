@@ -11,9 +11,6 @@ inside suite through it.
 from __future__ import annotations
 
 import os
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -41,38 +38,9 @@ def pytest_collection_modifyitems(items):
                 item.add_marker(pytest.mark.xdist_group("openxr"))
 
 
-def _missing_prerequisite() -> str | None:
-    if not sys.platform.startswith("linux"):
-        return "the Monado harness needs Linux"
-    if os.geteuid() != 0:
-        return "the Monado harness needs root (debootstrap, chroot, mount namespaces)"
-    for tool in ("debootstrap", "unshare", "setpriv", "chroot", "flock"):
-        if shutil.which(tool) is None:
-            return f"the Monado harness needs {tool}, which is not installed"
-    probe = subprocess.run(
-        ["unshare", "--mount", "--pid", "--fork", "--net", "true"],
-        capture_output=True,
-        text=True,
-    )
-    if probe.returncode != 0:
-        return f"unshare is not permitted here: {probe.stderr.strip()}"
-    return None
-
-
 @pytest.fixture(scope="session")
 def monado_harness() -> Path:
     """Path of tools/monado/run with its cached root built; skips where it cannot exist."""
-    reason = _missing_prerequisite()
-    if reason:
-        if os.environ.get("CI") == "true":
-            pytest.fail(f"CI=true but {reason}")
-        pytest.skip(reason)
-    build = subprocess.run(
-        [str(RUN), "--build-only"],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=BUILD_TIMEOUT,
-    )
-    assert build.returncode == 0, f"building the Monado root failed:\n{build.stderr}"
-    return RUN
+    from tests.chroot_harness import built_harness  # host side only
+
+    return built_harness(RUN, "the Monado harness", BUILD_TIMEOUT)
