@@ -17,7 +17,7 @@ struct Lighting {
     vec3 sky_irradiance;  // cosine-weighted sky light on an upward surface, linear RGB
 };
 
-Lighting scene_lighting() {
-    return Lighting(u_eye, u_sun_direction, u_sun_radiance, u_moon_direction, u_moon_radiance,
+Lighting scene_lighting(vec3 eye) {
+    return Lighting(eye, u_sun_direction, u_sun_radiance, u_moon_direction, u_moon_radiance,
                     u_sky_irradiance);
 }

@@ -78,25 +78,13 @@ void main() {
 
 #elif defined RESOLVE
 
+#include "tone.glsl"
+
 uniform sampler2D u_bloom;
 uniform float u_bloom_strength;
 uniform float u_bloom_normalisation;  // 1 / number of levels summed into u_bloom
 uniform float u_exposure;
 uniform bool u_tone_map;              // false: debug values, written clamped and unencoded
-
-// Stephen Hill's fit of the ACES RRT + ODT (sRGB primaries in and out).
-const mat3 ACES_INPUT = mat3(0.59719, 0.07600, 0.02840, 0.35458, 0.90834, 0.13383,
-                             0.04823, 0.01566, 0.83777);
-const mat3 ACES_OUTPUT = mat3(1.60475, -0.10208, -0.00327, -0.53108, 1.10813, -0.07276,
-                              -0.07367, -0.00605, 1.07602);
-
-vec3 aces_fitted(vec3 colour) {
-    colour = ACES_INPUT * colour;
-    vec3 a = colour * (colour + 0.0245786) - 0.000090537;
-    vec3 b = colour * (0.983729 * colour + 0.4329510) + 0.238081;
-    return clamp(ACES_OUTPUT * (a / b), 0.0, 1.0);
-}
-
 
 void main() {
     vec2 uv = output_uv();

@@ -15,7 +15,22 @@
 // texel grid, are drawn anew in every copy too.
 
 uniform int u_tile_variation;  // 1: copies varied per vertex; 0: the tile repeats as it is
+#if defined LAYER_GRAIN_FLOATS
+// For engines whose images hold no integers (Godot): layer + 1 and the identity's low and high
+// 16 bits as floats, each exact.
+uniform sampler2D u_layer_grain;
+
+uvec2 layer_and_grain(ivec2 texel) {
+    uvec3 v = uvec3(texelFetch(u_layer_grain, texel, 0).xyz + 0.5);
+    return uvec2(v.x, v.y | (v.z << 16u));
+}
+#else
 uniform usampler2D u_layer_grain;  // the grains' (layer + 1, identity) per finest-level texel
+
+uvec2 layer_and_grain(ivec2 texel) {
+    return texelFetch(u_layer_grain, texel, 0).xy;
+}
+#endif
 
 const float TILE_COPY_SPACING = 0.85;  // tiles between neighbouring vertices: a hexagon < 1 tile
 const float TILE_COPY_BIAS = 3.0;      // a point's weight for its vertex, against a grain's rank
@@ -73,8 +88,8 @@ void copy_vertices(vec2 tc, out ivec2 vertex[3], out vec3 weight) {
 // own mix of grains (ranking by height would favour the top layer's, and draw the borders as a
 // lighter honeycomb).
 float grain_rank(TileCopy c) {
-    ivec2 texel = min(ivec2(floor(fract(c.tc) * u_texture_size)), ivec2(u_texture_size) - 1);
-    uvec2 layer_grain = texelFetch(u_layer_grain, texel, 0).xy;
+    ivec2 texel = min(ivec2(floor(fract(c.tc) * u_texture_size)), ivec2(int(u_texture_size) - 1));
+    uvec2 layer_grain = layer_and_grain(texel);
     return hash01(lowbias32(layer_grain.y ^ lowbias32(layer_grain.x ^ c.key)));
 }
 

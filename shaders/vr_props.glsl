@@ -39,7 +39,7 @@ out vec4 out_radiance;
 
 void main() {
     vec3 n = normalize(v_normal);
-    Lighting L = shadowed(scene_lighting(), v_world, n);
+    Lighting L = shadowed(scene_lighting(u_eye), v_world, n);
     // Sky light from above, a little bounced up from the sand below.
     vec3 sky = L.sky_irradiance * (0.6 + 0.4 * n.y);
     vec3 light = L.sun_radiance * max(dot(n, L.sun_direction), 0.0)

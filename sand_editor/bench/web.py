@@ -131,47 +131,63 @@ def plain(preset: Preset) -> Preset:
 
 def compare(preset: Preset, ctx, distances=DISTANCES, time_text=TIME, folder=None) -> dict:
     """Both frames of each view, lit and without glints, and their FLIP and sparkle shares."""
+    return compare_port(
+        preset,
+        ctx,
+        "web",
+        lambda variant, out: export_web(variant, out, TEXTURE_SIZE, ctx=ctx),
+        page_frames,
+        distances,
+        time_text,
+        folder,
+    )
+
+
+def compare_port(
+    preset: Preset, ctx, port: str, export, frames, distances=DISTANCES, time_text=TIME, folder=None
+) -> dict:
+    """The views drawn by a port of the renderer (the web page, the Godot project) and by the
+    renderer, lit and without glints: FLIP and sparkle shares per view. ``export(preset, out)``
+    writes the port into the folder ``out``; ``frames(out, cameras)`` draws it ({"frames": (n,
+    height, width, 3) uint8, "ms": per frame, "info": what the port said of itself})."""
     from sand_editor.bench.depth import flip_error
     from sand_editor.bench.sweep import sparkle_share
 
     cameras = views(distances, time_text)
     variants = {"lit": preset, "plain": plain(preset)}
-    page = {}
-    with tempfile.TemporaryDirectory(prefix="sand-web-", dir=folder) as tmp:
+    drawn = {}
+    with tempfile.TemporaryDirectory(prefix=f"sand-{port}-", dir=folder) as tmp:
         for kind, variant in variants.items():
-            export_web(variant, Path(tmp) / kind, TEXTURE_SIZE, ctx=ctx)
-            page[kind] = page_frames(Path(tmp) / kind, cameras)
+            export(variant, Path(tmp) / kind)
+            drawn[kind] = frames(Path(tmp) / kind, cameras)
     ours = {kind: renderer_frames(ctx, variant, cameras) for kind, variant in variants.items()}
     rows = []
     for i, distance in enumerate(distances):
-        web_lit, web_plain = page["lit"]["frames"][i], page["plain"]["frames"][i]
+        port_lit, port_plain = drawn["lit"]["frames"][i], drawn["plain"]["frames"][i]
         our_lit, our_plain = ours["lit"][0][i], ours["plain"][0][i]
         rows.append({
             "preset": preset.name, "distance_m": distance, "time": time_text,
-            "flip": flip_error(our_lit / 255.0, web_lit / 255.0),
+            "flip": flip_error(our_lit / 255.0, port_lit / 255.0),
             "sparkle_ours": sparkle_share(our_lit, our_plain),
-            "sparkle_web": sparkle_share(web_lit, web_plain),
+            f"sparkle_{port}": sparkle_share(port_lit, port_plain),
             "ms_ours": ours["lit"][1][i],
-            "ms_web": page["lit"]["ms"][i] if page["lit"]["ms"] else None,
+            f"ms_{port}": drawn["lit"]["ms"][i] if drawn["lit"]["ms"] else None,
         })  # fmt: skip
     return {
         "rows": rows,
-        "info": page["lit"]["info"],
-        "frames": {"ours": ours["lit"][0], "web": page["lit"]["frames"]},
+        "info": drawn["lit"]["info"],
+        "frames": {"ours": ours["lit"][0], port: drawn["lit"]["frames"]},
     }
 
 
-def sparkles_agree(row: dict) -> bool:
-    ours, web = row["sparkle_ours"], row["sparkle_web"]
+def sparkles_agree(row: dict, port: str = "web") -> bool:
+    ours, web = row["sparkle_ours"], row[f"sparkle_{port}"]
     if ours < MIN_SPARKLE_SHARE:
         return web < MIN_SPARKLE_SHARE + SPARKLE_TOLERANCE * MIN_SPARKLE_SHARE
     return abs(web - ours) <= SPARKLE_TOLERANCE * ours
 
 
 def run(quick: bool = False) -> dict:
-    from sand_editor.bench.generator import machine_description
-    from sand_editor.bench.gpu import cpu_model
-
     ctx = standalone_context()
     names = PRESETS[:1] if quick else PRESETS
     rows, info = [], {}
@@ -179,10 +195,20 @@ def run(quick: bool = False) -> dict:
         result = compare(Preset.load(bundled_preset(name)), ctx)
         rows += result["rows"]
         info = result["info"]
+    return port_results(
+        ctx, rows, browser=info.get("renderer"), float_linear=info.get("float_linear")
+    )
+
+
+def port_results(ctx, rows: list[dict], **port) -> dict:
+    """A port bench's JSON: the machine, what the port said of itself, the views' settings, the
+    targets and the rows."""
+    from sand_editor.bench.generator import machine_description
+    from sand_editor.bench.gpu import cpu_model
+
     return {
         "machine": {**machine_description(ctx), "cpu_model": cpu_model()},
-        "browser": info.get("renderer"),
-        "float_linear": info.get("float_linear"),
+        **port,
         "size": list(SIZE),
         "texture_size": TEXTURE_SIZE,
         "pitch_deg": PITCH_DEG,
@@ -198,25 +224,35 @@ def format_table(results: dict) -> str:
         f"browser: {results['browser']} (32-bit float filtering: {results['float_linear']})",
         f"web export vs renderer, {results['size'][0]}×{results['size'][1]}, pitch "
         f"{results['pitch_deg']:g}°, {TIME}, material {results['texture_size']}²",
-        "",
-        "| sand | distance | FLIP | sparkle ours | sparkle web | ms ours | ms web |",
-        "|---|---|---|---|---|---|---|",
     ]
-    for row in results["rows"]:
-        web_ms = "–" if row["ms_web"] is None else f"{row['ms_web']:.0f}"
+    return "\n".join(lines + port_table(results["rows"], "web", "web"))
+
+
+def port_table(rows: list[dict], port: str, label: str, first=None) -> list[str]:
+    """The comparison's rows as a Markdown table and the verdict under it: ``label`` names the
+    port's columns; ``first`` (key, heading), if any, a leading column of each row."""
+    lead = f"| {first[1]} " if first else ""
+    lines = [
+        "",
+        f"{lead}| sand | distance | FLIP | sparkle ours | sparkle {label} | ms ours | ms {label} |",
+        "|---" * (8 if first else 7) + "|",
+    ]
+    for row in rows:
+        port_ms = "–" if row[f"ms_{port}"] is None else f"{row[f'ms_{port}']:.0f}"
+        lead = f"| {row[first[0]]} " if first else ""
         lines.append(
-            f"| {row['preset']} | {row['distance_m']:g} m | {row['flip']:.3f} | "
-            f"{row['sparkle_ours']:.4f} | {row['sparkle_web']:.4f} | {row['ms_ours']:.0f} | "
-            f"{web_ms} |"
+            f"{lead}| {row['preset']} | {row['distance_m']:g} m | {row['flip']:.3f} | "
+            f"{row['sparkle_ours']:.4f} | {row[f'sparkle_{port}']:.4f} | {row['ms_ours']:.0f} | "
+            f"{port_ms} |"
         )
-    worst = max(row["flip"] for row in results["rows"])
-    agree = all(sparkles_agree(row) for row in results["rows"])
-    lines.append("")
-    lines.append(
+    worst = max(row["flip"] for row in rows)
+    agree = all(sparkles_agree(row, port) for row in rows)
+    lines += [
+        "",
         f"worst FLIP {worst:.3f} (target ≤ {FLIP_TARGET}); sparkle shares within "
-        f"{SPARKLE_TOLERANCE:.0%}: {'yes' if agree else 'no'}"
-    )
-    return "\n".join(lines)
+        f"{SPARKLE_TOLERANCE:.0%}: {'yes' if agree else 'no'}",
+    ]
+    return lines
 
 
 def main(quick: bool = False, json_path: str | None = None) -> int:

@@ -187,8 +187,11 @@ def sky_table(step_minutes: int = SKY_STEP_MINUTES) -> list[dict]:
     return table
 
 
-def scene_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) -> dict[str, bytes]:
-    """Every file of the page but the viewer's own, ``scene.json`` last."""
+def scene_files(
+    preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE, with_programs: bool = True
+) -> dict[str, bytes]:
+    """Every file of the page but the viewer's own, ``scene.json`` last (without the page's
+    programs for a port that makes its own from the GLSL, the Godot export)."""
     material = SandMaterial(ctx, texture_size)
     renderer = SandRenderer(ctx)
     try:
@@ -209,7 +212,7 @@ def scene_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) ->
             "version": SCENE_VERSION,
             "preset": preset.name,
             "preset_document": preset.to_dict(),
-            "programs": programs(),
+            **({"programs": programs()} if with_programs else {}),
             "material": {"uniforms": material.uniform_values(), "textures": textures},
             "surface": {"switches": renderer.surface_switches("full"), "sky": list(SURFACE_SKY)},
             "terrain": terrain,
