@@ -34,7 +34,12 @@ BENCHMARKS = {
     "gpu": ("gpu", {"sizes"}),
     "export": ("export", set()),
     "web": ("web", set()),
+    "godot": ("godot", set()),
 }
+
+
+# Formats written as a folder of files rather than one asset.
+FOLDER_FORMATS = ("web", "godot")
 
 
 class CommandError(Exception):
@@ -123,7 +128,7 @@ def export_size(fmt: str | None, size: int | None) -> int:
 
     if size is not None:
         return size
-    return DEFAULT_RENDER_SIZE if fmt == "web" else DEFAULT_EXPORT_SIZE
+    return DEFAULT_RENDER_SIZE if fmt in FOLDER_FORMATS else DEFAULT_EXPORT_SIZE
 
 
 def _cmd_export(args) -> int:
@@ -131,8 +136,8 @@ def _cmd_export(args) -> int:
     from sand_editor.export.run import ExportSteps
     from sand_editor.generator import check_size
 
-    if args.format == "web":
-        return _export_web(args)
+    if args.format in FOLDER_FORMATS:
+        return _export_folder(args)
     size = export_size(args.format, args.size)
     check_size(size)
     if not (math.isfinite(args.patch) and MIN_PATCH_M <= args.patch <= MAX_PATCH_M):
@@ -150,21 +155,30 @@ def _cmd_export(args) -> int:
     return 0
 
 
-def _export_web(args) -> int:
-    from sand_editor.export.web import export_web
+def _export_folder(args) -> int:
     from sand_editor.generator import check_size
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise CommandError(f"{out}: is not a folder; with --format web, --out names a folder")
-    size = export_size("web", args.size)
+        raise CommandError(
+            f"{out}: is not a folder; with --format {args.format}, --out names a folder"
+        )
+    size = export_size(args.format, args.size)
     check_size(size)
     preset = Preset.load(preset_path(args.preset))
-    written = export_web(preset, out, size)
+    if args.format == "web":
+        from sand_editor.export.web import export_web
+
+        written, what = export_web(preset, out, size), "a web page"
+        then = f"view it with: sand-editor serve {printable(args.out)}"
+    else:
+        from sand_editor.export.godot import export_godot
+
+        written, what = export_godot(preset, out, size), "a Godot 4 project"
+        then = "open its project.godot in Godot 4 (made for and tested with 4.6)"
     print(
-        f"exported {preset.name} as a web page ({len(written)} files, "
-        f"{sum(written.values()) / 1e6:.1f} MB) to {printable(args.out)}; "
-        f"view it with: sand-editor serve {printable(args.out)}"
+        f"exported {preset.name} as {what} ({len(written)} files, "
+        f"{sum(written.values()) / 1e6:.1f} MB) to {printable(args.out)}; {then}"
     )
     return 0
 
@@ -358,22 +372,24 @@ def _parser() -> argparse.ArgumentParser:
 
     export = sub.add_parser(
         "export",
-        help="write a sand patch as a glTF 2.0 asset (.glb, .gltf), or the sand as a web page",
+        help="write a sand patch as a glTF 2.0 asset (.glb, .gltf), or the sand as a web page "
+        "or a Godot 4 project",
     )
     export.add_argument("preset", help="preset file or bundled preset name")
     export.add_argument(
-        "--out", required=True, help="the .glb or .gltf file to write (web: the folder)"
+        "--out", required=True, help="the .glb or .gltf file to write (web, godot: the folder)"
     )
     export.add_argument(
         "--format",
-        choices=["glb", "gltf", "web"],
-        help="default: from --out's suffix; web: a WebGL2/WebXR page with the glints",
+        choices=["glb", "gltf", *FOLDER_FORMATS],
+        help="default: from --out's suffix; web: a WebGL2/WebXR page with the glints; godot: "
+        "a Godot 4 project whose shader is the renderer's",
     )
     export.add_argument(
         "--size",
         type=integer,
         default=None,
-        help=f"{size_help} (default {DEFAULT_EXPORT_SIZE}; web {DEFAULT_RENDER_SIZE})",
+        help=f"{size_help} (default {DEFAULT_EXPORT_SIZE}; web, godot {DEFAULT_RENDER_SIZE})",
     )
     export.add_argument("--patch", type=number, default=2.0, help="edge of the patch in metres")
     export.add_argument("--sphere", action="store_true", help="put the sand sphere on the patch")

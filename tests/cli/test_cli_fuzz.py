@@ -42,11 +42,11 @@ def test_fuzzed_command_lines_end_in_one_documented_error(command, data, tmp_pat
         chosen[flag] = data.draw(values, label=flag)
         argv += [flag, chosen[flag]]
     # An output that exists and is a folder (render, vr, a glTF export) or a file (bake, a web
-    # export, which writes a folder): refused before work. serve's folder is never a web
+    # or Godot export, which write a folder): refused before work. serve's folder is never a web
     # export here, so it never serves.
     a_file = tmp_path / "a-file"
     a_file.write_text("")
-    if command == "bake" or (command == "export" and chosen.get("--format") == "web"):
+    if command == "bake" or (command == "export" and chosen.get("--format") in ("web", "godot")):
         argv += ["--out", str(a_file)]
     elif command != "serve":
         argv += ["--report" if command == "vr" else "--out", str(tmp_path)]

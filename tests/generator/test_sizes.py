@@ -46,6 +46,7 @@ def test_the_command_line_offers_the_policys_sizes():
     assert export_size("glb", None) == export_size(None, None) == sizes.DEFAULT_EXPORT_SIZE
     assert export_size("web", None) == sizes.DEFAULT_RENDER_SIZE
     assert export_size("web", 256) == 256
+    assert export_size("godot", None) == sizes.DEFAULT_RENDER_SIZE
     with pytest.raises(SystemExit):
         parser.parse_args(["vr", "--texture-size", str(sizes.VR_SIZES[-1] * 2)])
 
