@@ -264,3 +264,16 @@ def test_the_bench_table_says_where_godot_and_the_renderer_disagree():
     assert table.endswith("worst FLIP 0.070 (target ≤ 0.1); sparkle shares within 25%: no")
     results["rows"] = results["rows"][1:]
     assert godot_bench.format_table(results).endswith("within 25%: yes")
+
+
+@pytest.mark.parametrize(
+    "args, said",
+    [(["--driver", "metal"], "--driver takes opengl3 or vulkan"),
+     (["--size", "0x5"], "--size takes WIDTHxHEIGHT"),
+     (["--frames", "many"], "--frames needs a whole number"),
+     (["/no/such/folder"], "no project folder"),
+     (["."], "holds no project.godot")],
+)  # fmt: skip
+def test_the_godot_harness_refuses_what_it_cannot_run(godot_harness, args, said):
+    done = subprocess.run([str(godot_harness), *args], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 125 and said in done.stderr, done.stderr
