@@ -29,9 +29,6 @@ void main() {
 
 out vec4 out_radiance;
 
-
-
-
 // A disc of angular radius r around direction c with a soft edge one pixel-ish wide, and its
 // radiance chosen so the disc delivers the given irradiance.
 vec3 disc(vec3 dir, vec3 c, float r, vec3 irradiance) {
@@ -61,12 +58,8 @@ float stars(vec3 dir) {
     return brightness * (1.0 - smoothstep(0.0, size, d));
 }
 
-void main() {
-    vec2 ndc = gl_FragCoord.xy / u_resolution * 2.0 - 1.0;
-    vec4 far_point = u_inverse_view_projection * vec4(ndc, 1.0, 1.0);
-    vec4 near_point = u_inverse_view_projection * vec4(ndc, -1.0, 1.0);
-    vec3 dir = normalize(far_point.xyz / far_point.w - near_point.xyz / near_point.w);
-
+// The sky's radiance towards unit direction dir (world space), below the horizon a lit ground.
+vec3 sky_radiance(vec3 dir) {
     float mu = max(dir.y, 0.0);
     vec3 sky = mix(u_sky_horizon, u_sky_zenith, pow(mu, u_gradient_exponent));
     // The sun brightens the sky around it (forward scattering), more so when it is low.
@@ -80,8 +73,15 @@ void main() {
     vec3 ground_light = u_sun_radiance * max(u_sun_direction.y, 0.0)
                       + u_moon_radiance * max(u_moon_direction.y, 0.0) + u_sky_irradiance;
     vec3 ground = u_ground_albedo / PI * ground_light;
-    vec3 radiance = mix(ground, sky, smoothstep(-0.01, 0.0, dir.y));
-    out_radiance = vec4(min(radiance, vec3(MAX_HALF)), 1.0);
+    return min(mix(ground, sky, smoothstep(-0.01, 0.0, dir.y)), vec3(MAX_HALF));
+}
+
+void main() {
+    vec2 ndc = gl_FragCoord.xy / u_resolution * 2.0 - 1.0;
+    vec4 far_point = u_inverse_view_projection * vec4(ndc, 1.0, 1.0);
+    vec4 near_point = u_inverse_view_projection * vec4(ndc, -1.0, 1.0);
+    vec3 dir = normalize(far_point.xyz / far_point.w - near_point.xyz / near_point.w);
+    out_radiance = vec4(sky_radiance(dir), 1.0);
 }
 
 #endif

@@ -23,9 +23,11 @@ from sand_editor.export.godot import (
     PROJECT_FILES,
     SCENE_FILE,
     SHADER_FILE,
+    SKY_SHADER_FILE,
     GodotShaderError,
     export_godot,
     fragment_stage,
+    godot_sky_shader,
     matrix_columns,
     shader_uniforms,
 )
@@ -75,6 +77,17 @@ def test_the_shader_is_the_renderers_program_in_godots_frame(project):
     assert "uniform sampler2D u_layer_grain : filter_nearest, repeat_enable;" in shader
     assert "uniform sampler2D u_glint_moments : filter_linear_mipmap, repeat_enable;" in shader
     assert "sampler3D u_relief_visibility : filter_linear, repeat_disable;" in shader
+
+
+def test_the_sky_is_the_renderers_sky_program_in_godots_frame():
+    sky = godot_sky_shader()
+    core = fragment_stage(gl.shader_text("sky.glsl", {}))
+    assert sky.startswith("shader_type sky;\n")
+    assert "sky_radiance(EYEDIR)" in sky and "gl_FragCoord" not in sky
+    assert set(_FUNCTION.findall(sky)) == set(_FUNCTION.findall(core)) - {"main"} | {
+        "aces_fitted", "sky"}  # fmt: skip
+    assert set(shader_uniforms(sky)) == set(shader_uniforms(core)) | {"u_exposure",
+                                                                      "u_editor_look"}  # fmt: skip
 
 
 def test_the_stage_blocks_resolve_for_the_fragment_and_other_directives_stay():
@@ -145,7 +158,7 @@ def test_the_grain_identities_cross_as_exact_floats(project, gl_ctx):
 def test_the_project_holds_the_material_the_renderer_binds(project, gl_ctx):
     scene = _scene(project)
     names = sorted(p.name for p in project.iterdir() if not p.name.startswith("."))
-    assert set(PROJECT_FILES) | {SHADER_FILE, SCENE_FILE} <= set(names)
+    assert set(PROJECT_FILES) | {SHADER_FILE, SKY_SHADER_FILE, SCENE_FILE} <= set(names)
     material = SandMaterial(gl_ctx, SMALL)
     try:
         material.update(Preset.load(bundled_preset("red-desert")))
@@ -163,7 +176,16 @@ def test_the_project_holds_the_material_the_renderer_binds(project, gl_ctx):
     assert uniforms["u_tile_variation"]["value"] == 1 and uniforms["u_mode"]["value"] == 0
     table = scene["sky"]["table"]
     assert {n for row in table for n in row["uniforms"]} <= set(declared)
-    assert all(len(row["horizon"]) == 3 and row["exposure"] > 0 for row in table)
+    sky_declared = shader_uniforms((project / SKY_SHADER_FILE).read_text())
+    constants = {u["name"] for u in scene["sky"]["constants"]}
+    assert constants == {"u_ground_albedo", "u_gradient_exponent", "u_sun_radius",
+                         "u_moon_radius"}  # fmt: skip
+    # Every uniform of the sky is set: by the day's table, the constants or the export's frame
+    # (the screen's inverse projection and size are Godot's EYEDIR there).
+    by_time = {n for row in table for n in row["sky_uniforms"]}
+    assert by_time | constants | {"u_exposure", "u_editor_look", "u_inverse_view_projection",
+                                  "u_resolution"} == set(sky_declared)  # fmt: skip
+    assert all(row["exposure"] > 0 for row in table)
     assert "programs" not in scene  # the page's GLSL ES stays with the web export
 
 
@@ -206,6 +228,30 @@ def test_godot_draws_what_the_renderer_draws(name, driver, godot_harness, gl_ctx
     ours, drawn = result["frames"]["ours"], result["frames"]["godot"]
     ground = slice(ours.shape[1] // 2, None)
     assert abs(float(drawn[:, ground].mean()) - float(ours[:, ground].mean())) < 4.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("driver", ["opengl3", "vulkan"])
+def test_godot_draws_the_renderers_sky_by_day_and_night(driver, godot_harness, gl_ctx, tmp_path):
+    from sand_editor.render.camera import camera_at_distance
+    from sand_editor.render.terrain import DuneTerrain
+
+    terrain = DuneTerrain()
+    cameras = [
+        (camera_at_distance(30.0, 3.0, 16 / 9, lambda x, z: float(terrain.height(x, z)),
+                            heading_deg=heading), hours)
+        for heading, hours in ((0.0, 12.0), (90.0, 21.0))
+    ]  # fmt: skip
+    preset = Preset.load(bundled_preset("paper-default"))
+    export_godot(preset, tmp_path / "sand", SMALL, ctx=gl_ctx)
+    drawn = godot_bench.godot_frames(tmp_path / "sand", cameras, driver)["frames"]
+    ours, _ = web_bench.renderer_frames(gl_ctx, preset, cameras, texture_size=SMALL)
+    sky = slice(0, 40)  # above every dune in these views
+    for mine, theirs in zip(ours, drawn, strict=True):
+        difference = np.abs(theirs[sky].mean(axis=(0, 1)) - mine[sky].mean(axis=(0, 1)))
+        assert difference.max() < 3.5, difference
+    noon, night = drawn[0][sky].mean(axis=(0, 1)), drawn[1][sky].mean(axis=(0, 1))
+    assert noon[2] > noon[0] + 30 and night.max() < 0.6 * noon.max()  # blue by day, dark by night
 
 
 @pytest.mark.slow

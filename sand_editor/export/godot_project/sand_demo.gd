@@ -26,7 +26,8 @@ func _ready() -> void:
 		get_tree().quit(1)
 		return
 	add_child(sand.make_terrain())
-	environment.background_mode = Environment.BG_COLOR
+	environment.background_mode = Environment.BG_SKY
+	environment.sky = sand.sky
 	environment.tonemap_mode = Environment.TONE_MAPPER_LINEAR
 	var world := WorldEnvironment.new()
 	world.environment = environment
@@ -57,7 +58,6 @@ func _user_args() -> Dictionary:
 
 func _set_hours(hours: float) -> void:
 	sand.set_time(hours)
-	environment.background_color = sand.background.linear_to_srgb()
 	label.text = "%02d:%02d" % [int(hours), int(fmod(hours, 1.0) * 60.0)]
 
 

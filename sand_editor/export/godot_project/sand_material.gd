@@ -1,11 +1,12 @@
-# The sand of Sand Editor in Godot 4: the ShaderMaterial and the dunes' mesh, built from the
-# files beside this script (scene.json, the textures' .bin files, sand.gdshader) as
+# The sand of Sand Editor in Godot 4: the ShaderMaterial, the dunes' mesh and the sky, built from
+# the files beside this script (scene.json, the textures' .bin files, sand.gdshader, sky.gdshader) as
 # `sand-editor export --format godot` wrote them. Every mip level is the editor's own: the
 # textures are made here rather than imported, so Godot neither remakes nor compresses them.
 #
 #     var sand := preload("res://sand/sand_material.gd").new("res://sand")
 #     add_child(sand.make_terrain())   # or: some_mesh.material_override = sand.material
 #     sand.set_time(16.5)              # sun, moon, sky light and exposure of that hour
+#     environment.sky = sand.sky       # the editor's sky (background_mode = BG_SKY)
 #
 # In an exported game, add "*.bin, *.json" to the export preset's non-resource filters.
 extends RefCounted
@@ -20,9 +21,10 @@ const IMAGE_FORMATS := {
 var folder: String
 var scene: Dictionary
 var material: ShaderMaterial
+var sky_material: ShaderMaterial
+var sky: Sky
 var hours := 12.0
 var exposure := 1.0
-var background := Color(0.5, 0.6, 0.8)  # the sky at the horizon, for an Environment
 
 
 func _init(path: String = "") -> void:
@@ -33,15 +35,26 @@ func _init(path: String = "") -> void:
 		push_error("Sand: %s is missing or not a scene" % folder.path_join("scene.json"))
 		return
 	scene = parsed
-	var shader := Shader.new()
-	shader.code = FileAccess.get_file_as_string(folder.path_join("sand.gdshader"))
-	material = ShaderMaterial.new()
-	material.shader = shader
-	for uniform in scene.material.uniforms:
-		material.set_shader_parameter(uniform.name, _value(uniform.type, uniform.value))
+	material = _shader_material("sand.gdshader", scene.material.uniforms)
+	sky_material = _shader_material("sky.gdshader", scene.sky.constants)
+	sky = Sky.new()
+	sky.sky_material = sky_material
+	# The sand is lit by its own sun and sky, not Godot's reflections of the sky: the smallest
+	# radiance map keeps Forward+ from spending a frame's time on it at every change of hour.
+	sky.radiance_size = Sky.RADIANCE_SIZE_32
 	for entry in scene.material.textures:
 		material.set_shader_parameter(entry.uniform, _texture(entry))
 	set_time(hours)
+
+
+func _shader_material(file: String, uniforms: Array) -> ShaderMaterial:
+	var shader := Shader.new()
+	shader.code = FileAccess.get_file_as_string(folder.path_join(file))
+	var made := ShaderMaterial.new()
+	made.shader = shader
+	for uniform in uniforms:
+		made.set_shader_parameter(uniform.name, _value(uniform.type, uniform.value))
+	return made
 
 
 # A uniform's value as the shader's type takes it (JSON holds every number as a float).
@@ -90,22 +103,24 @@ func set_time(at_hours: float) -> void:
 	var t: float = (hours - table[i].hours) / step
 	var a: Dictionary = table[i]
 	var b: Dictionary = table[i + 1]
-	for name in a.uniforms:
-		var va = a.uniforms[name]
-		var vb = b.uniforms[name]
+	_mix(material, a.uniforms, b.uniforms, t)
+	_mix(sky_material, a.sky_uniforms, b.sky_uniforms, t)
+	exposure = exp(lerpf(log(a.exposure), log(b.exposure), t))
+	material.set_shader_parameter("u_exposure", exposure)
+	sky_material.set_shader_parameter("u_exposure", exposure)
+
+
+func _mix(target: ShaderMaterial, a: Dictionary, b: Dictionary, t: float) -> void:
+	for name in a:
+		var va = a[name]
+		var vb = b[name]
 		if va is Array:
 			var mixed := Vector3(va[0], va[1], va[2]).lerp(Vector3(vb[0], vb[1], vb[2]), t)
 			if name.ends_with("_direction") and mixed.length() > 0.0:
 				mixed = mixed.normalized()
-			material.set_shader_parameter(name, mixed)
+			target.set_shader_parameter(name, mixed)
 		else:
-			material.set_shader_parameter(name, lerpf(va, vb, t))
-	exposure = exp(lerpf(log(a.exposure), log(b.exposure), t))
-	material.set_shader_parameter("u_exposure", exposure)
-	var ha: Array = a.horizon
-	var hb: Array = b.horizon
-	var h := Vector3(ha[0], ha[1], ha[2]).lerp(Vector3(hb[0], hb[1], hb[2]), t) * exposure
-	background = Color(h.x, h.y, h.z)
+			target.set_shader_parameter(name, lerpf(va, vb, t))
 
 
 # The dunes around the scene's origin as a MeshInstance3D drawn with the sand.
