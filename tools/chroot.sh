@@ -1,5 +1,6 @@
 # Shared by the harnesses that run a program inside a cached Debian root (tools/monado/run,
-# tools/godot/run): sourced after they define log and die (exit 125: the harness failed).
+# tools/godot/run): sourced after they define SELF (the harness), log and die (exit 125: the
+# harness failed).
 
 now() { date +%s.%N; }
 since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
@@ -23,6 +24,16 @@ detect_mirror() {
         } | grep -E '^https?://' | grep -v -- '-security' | grep -E '/debian/?$' | head -n1
     ) || true
     echo "${uri:-http://deb.debian.org/debian}"
+}
+
+# Runs the harness again ($SELF "$@") in a private mount + pid namespace, and any further
+# namespaces in $NAMESPACES ("--net --ipc"): whatever the step mounts or starts is gone when it
+# ends, even if the harness is killed outright.
+in_private_ns() {
+    # shellcheck disable=SC2086
+    setpriv --pdeathsig SIGKILL \
+        unshare --mount --propagation private --pid --fork --mount-proc ${NAMESPACES:-} \
+        --kill-child=SIGKILL bash "$SELF" "$@"
 }
 
 # Mounts needed to run apt/pip inside a root; called in a private mount namespace.
