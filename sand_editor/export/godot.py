@@ -7,7 +7,7 @@ own surface program (``terrain.glsl`` and everything it includes), turned into a
 shader by :func:`godot_shader`, never a hand copy: Godot's shading language is GLSL with its own
 frame (``shader_type``, ``varying`` for a stage's ins and outs, one ``vertex()`` and one
 ``fragment()`` for ``main``, hints on samplers, ``PI`` built in). The textures, uniforms, dunes
-and the day's skies are the web export's, as the web export writes them (``web.scene_files``);
+and the day's skies are the web export's, as the web export makes them (``web.scene_data``);
 ``sand_material.gd`` builds the ``ShaderMaterial`` and the dunes' mesh from them at run
 time, every mip level as the material made it (Godot's importer would make its own mipmaps and
 compress the moments).
@@ -22,7 +22,6 @@ maps (no shadows are cast onto the sand) and the resolve's bloom.
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
@@ -290,9 +289,7 @@ def _typed(values: dict, declared: dict[str, str]) -> list[dict]:
 
 def godot_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) -> dict[str, bytes]:
     """Every file of the project, ``scene.json`` last."""
-    site = web.scene_files(preset, ctx, texture_size, with_programs=False)
-    scene = json.loads(site.pop(web.SCENE_FILE))
-    files = dict(site)
+    scene, files = web.scene_data(preset, ctx, texture_size, with_programs=False)
     textures = []
     for entry in scene["material"]["textures"]:
         path = entry["file"]
@@ -329,7 +326,7 @@ def godot_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) ->
     files[SKY_SHADER_FILE] = sky_shader.encode()
     files[SHADER_FILE] = shader.encode()
     files.update({name: (PROJECT_DIR / name).read_bytes() for name in PROJECT_FILES})
-    files[SCENE_FILE] = json.dumps(scene, separators=(",", ":"), allow_nan=False).encode()
+    files[SCENE_FILE] = web.scene_json(scene)
     return files
 
 

@@ -187,10 +187,22 @@ def sky_table(step_minutes: int = SKY_STEP_MINUTES) -> list[dict]:
     return table
 
 
-def scene_files(
+def scene_files(preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE) -> dict[str, bytes]:
+    """Every file of the page but the viewer's own, ``scene.json`` last."""
+    scene, files = scene_data(preset, ctx, texture_size)
+    return {**files, SCENE_FILE: scene_json(scene)}
+
+
+def scene_json(scene: dict) -> bytes:
+    """``scene.json``'s bytes. JSON writes the uniforms' tuples as arrays, and refuses a NaN or
+    inf outright."""
+    return json.dumps(scene, separators=(",", ":"), allow_nan=False).encode()
+
+
+def scene_data(
     preset: Preset, ctx, texture_size: int = DEFAULT_RENDER_SIZE, with_programs: bool = True
-) -> dict[str, bytes]:
-    """Every file of the page but the viewer's own, ``scene.json`` last (without the page's
+) -> tuple[dict, dict[str, bytes]]:
+    """The scene (what ``scene.json`` holds) and the data files it names (without the page's
     programs for a port that makes its own from the GLSL, the Godot export)."""
     material = SandMaterial(ctx, texture_size)
     renderer = SandRenderer(ctx)
@@ -224,9 +236,7 @@ def scene_files(
                 "upsample_radius": UPSAMPLE_RADIUS,
             },
         }
-        # JSON writes the uniforms' tuples as arrays, and refuses a NaN or inf outright.
-        files[SCENE_FILE] = json.dumps(scene, separators=(",", ":"), allow_nan=False).encode()
-        return files
+        return scene, files
     finally:
         renderer.release()
         material.release()
