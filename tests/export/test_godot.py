@@ -17,7 +17,6 @@ from sand_editor import gl
 from sand_editor.bench import godot as godot_bench
 from sand_editor.bench import web as web_bench
 from sand_editor.bench.sweep import random_preset
-from sand_editor.cli import main
 from sand_editor.export.godot import (
     DRAWS_EVERY_DISTANCE,
     PROJECT_FILES,
@@ -187,21 +186,6 @@ def test_the_project_holds_the_material_the_renderer_binds(project, gl_ctx):
                                   "u_resolution"} == set(sky_declared)  # fmt: skip
     assert all(row["exposure"] > 0 for row in table)
     assert "programs" not in scene  # the page's GLSL ES stays with the web export
-
-
-def test_export_godot_on_the_command_line_and_its_refusals(tmp_path, capsys):
-    out = tmp_path / "project"
-    assert main(["export", "pale-quartz", "--format", "godot", "--out", str(out),
-                 "--size", "64"]) == 0  # fmt: skip
-    said = capsys.readouterr().out
-    assert "exported pale-quartz as a Godot 4 project" in said and "project.godot" in said
-    assert _scene(out)["preset"] == "pale-quartz"
-    a_file = tmp_path / "a-file"
-    a_file.write_text("kept")
-    assert main(["export", "pale-quartz", "--format", "godot", "--out", str(a_file)]) == 1
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "is not a folder" in err and "--format godot" in err
-    assert a_file.read_text() == "kept"
 
 
 @pytest.mark.slow

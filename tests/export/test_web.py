@@ -125,21 +125,25 @@ def test_the_day_and_the_dunes_are_whole(site):
     assert walk["snap_turn_deg"] == SNAP_TURN_DEG
 
 
-def test_export_web_on_the_command_line_and_its_refusals(tmp_path, capsys):
-    out = tmp_path / "page"
-    assert main(["export", "black-volcanic", "--format", "web", "--out", str(out),
-                 "--size", "64"]) == 0  # fmt: skip
-    said = capsys.readouterr().out
-    assert "exported black-volcanic as a web page" in said and "sand-editor serve" in said
-    assert _scene(out)["preset"] == "black-volcanic"
+@pytest.mark.parametrize(
+    "fmt, preset, said",
+    [("web", "black-volcanic", ("as a web page", "sand-editor serve")),
+     ("godot", "pale-quartz", ("as a Godot 4 project", "project.godot"))],
+)  # fmt: skip
+def test_folder_exports_on_the_command_line_and_their_refusals(fmt, preset, said, tmp_path,
+                                                                capsys):  # fmt: skip
+    out = tmp_path / "folder"
+    assert main(["export", preset, "--format", fmt, "--out", str(out), "--size", "64"]) == 0
+    printed = capsys.readouterr().out
+    assert f"exported {preset} {said[0]}" in printed and said[1] in printed
+    assert _scene(out)["preset"] == preset
     a_file = tmp_path / "a-file"
     a_file.write_text("kept")
-    assert main(["export", "black-volcanic", "--format", "web", "--out", str(a_file)]) == 1
+    assert main(["export", preset, "--format", fmt, "--out", str(a_file)]) == 1
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "is not a folder" in err
+    assert err.count("\n") == 1 and "is not a folder" in err and f"--format {fmt}" in err
     assert a_file.read_text() == "kept"
-    assert main(["export", "black-volcanic", "--format", "web", "--out", str(out),
-                 "--size", "10"]) == 1  # fmt: skip
+    assert main(["export", preset, "--format", fmt, "--out", str(out), "--size", "10"]) == 1
     assert "allowed 64 to 4096" in capsys.readouterr().err
 
 
