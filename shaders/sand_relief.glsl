@@ -8,8 +8,9 @@
 // field in a bounded number of steps (parallax occlusion mapping), each eye with its own view
 // vector, so each sees the grains at their own depth; from where it lands, a ray towards the
 // light finds how far the grains in front rise above it (a soft shadow). Both fade in as a
-// grain cell grows from RELIEF_FADE_PX.x to .y pixels, and nothing of it runs below that, so mid
-// and far range pay nothing. What the shadows take from a pixel of many grains is not lost
+// grain cell grows from RELIEF_FADE_PX.x to .y of the footprint's taps (a pixel's width across,
+// a share of its length along a grazing view: sand_surface.glsl), and nothing of it runs below
+// that, so mid and far range pay nothing. What the shadows take from a pixel of many grains is not lost
 // there: the material measures its mean per light and eye direction (relief_visibility.frag)
 // and the far range, and the close range where the relief fades, are lit by that.
 
@@ -37,10 +38,10 @@ float relief_height(vec2 tc, float lod) {
     return textureLod(u_albedo, tc, max(lod - RELIEF_SHARPEN_LOD, 0.0)).a;
 }
 
-// The weight of the relief for a footprint whose texel footprint is `texels` wide.
-float relief_weight(float texels_per_pixel) {
+// The weight of the relief where the footprint's taps are `texels_per_tap` texels long.
+float relief_weight(float texels_per_tap) {
     if (u_relief == 0) return 0.0;
-    float cell_px = u_grain_cell * u_texture_size / max(texels_per_pixel, 1e-6);
+    float cell_px = u_grain_cell * u_texture_size / max(texels_per_tap, 1e-6);
     return smoothstep(RELIEF_FADE_PX.x, RELIEF_FADE_PX.y, cell_px);
 }
 

@@ -88,15 +88,56 @@ vec2 glint_factors(Footprint f, HalfVector h0, HalfVector h1, bool sparkle) {
 #endif
 }
 
-// Albedo, mean slope and the grain normals' moments of the footprint (the ground truth averages
-// its finest-level taps).
-void footprint_surface(Footprint f, out vec3 albedo, out vec2 slope, out vec4 normals) {
+// The footprint's longer axis cut into taps, each about as long as its shorter axis (at most
+// ANISOTROPIC_TAPS): a mip level is square, and one level for a whole footprint seen at a
+// grazing angle is its long axis's, a blur across the short one that stretches the grains
+// sideways into streaks. The taps keep the grains as sharp across as the pixel is.
+const int ANISOTROPIC_TAPS = 8;
+uniform int u_anisotropic;  // 1: up to ANISOTROPIC_TAPS taps; 0: one, the longer axis's level
+
+struct Taps {
+    vec2 step;    // from one tap's centre to the next, in tiles
+    vec2 across;  // the footprint's shorter axis, in tiles
+    int count;
+};
+
+Taps anisotropic_taps(vec2 dx, vec2 dy) {
+    bool y_longer = dot(dy, dy) > dot(dx, dx);
+    vec2 along = y_longer ? dy : dx;
+    Taps t;
+    t.across = y_longer ? dx : dy;
+    float ratio = length(along) / max(length(t.across), 1e-12);
+    // The 0.05 keeps a footprint a hair longer than wide to one tap.
+    float most = u_anisotropic != 0 ? float(ANISOTROPIC_TAPS) : 1.0;
+    t.count = int(clamp(ceil(ratio - 0.05), 1.0, most));
+    t.step = along / float(t.count);
+    return t;
+}
+
+// Texels along a tap's longer edge: what its mip level is chosen by.
+float tap_texels(Taps t) {
+    return max(length(t.step), length(t.across)) * u_texture_size;
+}
+
+// Albedo, mean slope and the grain normals' moments of the footprint: the mean of its taps t
+// (the ground truth averages its finest-level taps).
+void footprint_surface(Footprint f, Taps t, out vec3 albedo, out vec2 slope, out vec4 normals) {
 #if defined SAND_PROBE
     if (probe_footprint_surface(f, albedo, slope, normals)) return;
 #endif
-    albedo = textureGrad(u_albedo, f.tc, f.dx, f.dy).rgb;
-    slope = textureGrad(u_spread_moments, f.tc, f.dx, f.dy).zw;
-    normals = textureGrad(u_normal_moments, f.tc, f.dx, f.dy);
+    albedo = vec3(0.0);
+    slope = vec2(0.0);
+    normals = vec4(0.0);
+    for (int i = 0; i < t.count; ++i) {
+        vec2 tc = f.tc + t.step * (float(i) + 0.5 - 0.5 * float(t.count));
+        albedo += textureGrad(u_albedo, tc, t.across, t.step).rgb;
+        slope += textureGrad(u_spread_moments, tc, t.across, t.step).zw;
+        normals += textureGrad(u_normal_moments, tc, t.across, t.step);
+    }
+    float share = 1.0 / float(t.count);
+    albedo *= share;
+    slope *= share;
+    normals *= share;
 }
 
 #include "sand_far.glsl"
@@ -195,7 +236,7 @@ struct Shaded {
     vec3 radiance;
     vec3 glint;         // the specular part of radiance
     vec3 micro_normal;  // the diffuse shading normal
-    float lod;
+    float lod;          // the mip level the footprint's taps read
 };
 
 // The specular light of both lights for densities D of mirroring slopes.
@@ -222,23 +263,30 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     f.dx = dFdx(f.tc);
     f.dy = dFdy(f.tc);
     Shaded c;
-    vec2 texels = vec2(max(length(f.dx), length(f.dy))) * u_texture_size;
-    c.lod = clamp(log2(max(texels.x, 1e-8)), 0.0, u_max_lod);
+    // The footprint's level as one square (the copies' borders and the reference's boost
+    // scale with it) and the level its taps read.
+    float texels = max(length(f.dx), length(f.dy)) * u_texture_size;
+    float footprint_lod = clamp(log2(max(texels, 1e-8)), 0.0, u_max_lod);
+    Taps taps = anisotropic_taps(f.dx, f.dy);
+    c.lod = clamp(log2(max(tap_texels(taps), 1e-8)), 0.0, u_max_lod);
     if (u_tile_variation != 0) {
-        // The tile's copy at this point (tile_variation.glsl), shaded in its own axes.
-        TileCopy copy = tile_copy(f.tc, c.lod);
+        // The tile's copy at this point (tile_variation.glsl), shaded in its own axes; its
+        // symmetry keeps the footprint's lengths, so the taps only turn with it.
+        TileCopy copy = tile_copy(f.tc, footprint_lod);
         f.tc = copy.tc;
         f.dx = copy.axes * f.dx;
         f.dy = copy.axes * f.dy;
+        taps.step = copy.axes * taps.step;
+        taps.across = copy.axes * taps.across;
         s = in_copy_axes(s, copy.axes);
     }
     lights_in_tangent(s, L, f);
     // The light that reaches the grains: the pixel's own shadows where the relief is drawn,
     // their mean over many grains where it is not (as far away), and between the two as the
-    // relief fades in.
+    // relief fades in: by the grains' size against a tap, as sharp as the grains are read.
     vec3 e = normalize(f.to_eye);
     vec2 reaching = vec2(mean_relief_visibility(f.light0, e), mean_relief_visibility(f.light1, e));
-    float relief = relief_weight(texels.x);
+    float relief = relief_weight(tap_texels(taps));
     if (relief > 0.0) {
         // The grains at their depth for this eye, and the light that reaches where it looks.
         Relief r = relief_at(f.tc, e, f.light0, f.light1, bvec2(f.lit0, f.lit1), relief, c.lod);
@@ -252,7 +300,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     vec3 albedo;
     vec2 slope;
     vec4 normals;
-    footprint_surface(f, albedo, slope, normals);
+    footprint_surface(f, taps, albedo, slope, normals);
     c.micro_normal = to_world(normalize(vec3(slope, 1.0)), s);
     HalfVector h[2];
     half_vectors_at(f, vec2(0.0), h[0], h[1]);
@@ -260,7 +308,8 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     if (reference_look) {
         // E[w·lobe] = D·2π·var; the lobe 1 at the mirror direction, Fresnel normalised to 1
         // at normal incidence, the light's cosine: the reference's formula.
-        float gain = REFERENCE_GLINT_GAIN * exp(REFERENCE_BOOST * c.lod / max(u_max_lod, 1.0));
+        float boost = REFERENCE_BOOST * footprint_lod / max(u_max_lod, 1.0);
+        float gain = REFERENCE_GLINT_GAIN * exp(boost);
         float f0 = fresnel_dielectric(1.0, u_grain_ior);
         c.glint = vec3(0.0);
         vec3 e[2] = vec3[2](L.sun_radiance, L.moon_radiance);

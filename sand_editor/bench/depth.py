@@ -7,8 +7,11 @@ of that size should show. FLIP (NVIDIA's perceptual metric, PyPI ``flip-evaluato
 the two over the ground (the frame's lower half, below any horizon). One fixed exposure, from
 the light, serves both, so the metering of frames of different sizes does not enter. The
 features: the grains' relief (``SandRenderer.relief``), the ripples filtered along each
-pixel's footprint (``SandRenderer.sharp_ripples``) and the shadows (``SandRenderer.shadows``);
-each row gives the frame with all of them, and without one. Every timed frame's clock moves on
+pixel's footprint (``SandRenderer.sharp_ripples``), the grain textures read in taps along a
+grazing footprint (``SandRenderer.anisotropic``) and the shadows (``SandRenderer.shadows``);
+each row gives the frame with all of them, and without one. Beside them, the FLIP of the same
+renderer supersampled 2×2 and 4×4 (SUPERSAMPLED_FLOORS): what four and sixteen times the work
+per pixel would buy. Every timed frame's clock moves on
 by a minute, as in a time-lapse, so that each frame draws one of the four shadow maps again (a
 still view draws none, a first frame all four).
 Up close the sparkles are stochastic per pixel by design: their FLIP is reported, not a target.
@@ -35,9 +38,12 @@ SIZE = (320, 180)
 SUPERSAMPLE = 8
 TIME = 16.5
 PITCH_DEG = 15.0
-FEATURES = ("relief", "sharp_ripples", "shadows")
+FEATURES = ("relief", "sharp_ripples", "anisotropic", "shadows")
 FEATURE_LABELS = {"relief": "no relief", "sharp_ripples": "isotropic ripples",
-                  "shadows": "no shadows"}  # fmt: skip
+                  "anisotropic": "isotropic textures", "shadows": "no shadows"}  # fmt: skip
+# The same renderer with more samples per pixel (k×k, averaged as the truth is): how near to the
+# truth a frame gets by spending k² times its work.
+SUPERSAMPLED_FLOORS = (2, 4)
 CLOCK_STEP_H = 1.0 / 60.0
 REPEATS = 7  # timed frames per setting, the median kept
 PAN_STEP_PX = 0.25  # the flicker figure's camera step per frame, in pixels at the view's distance
@@ -172,6 +178,12 @@ def run(quick: bool = False) -> dict:
             for label, features in [("all", {}), *((f"no_{f}", {f: False}) for f in FEATURES)]:
                 image, ms = views.timed(distance, **features)
                 row[label] = {"flip": flip_error(truth, image / 255.0), "ms": ms}
+            row["supersampled"] = {
+                str(k): flip_error(
+                    truth, supersampled(views.frame(distance, (SIZE[0] * k, SIZE[1] * k))[0], k)
+                )
+                for k in SUPERSAMPLED_FLOORS
+            }
             row["flicker"] = views.flicker(distance)
             rows.append(row)
             print(f"  depth at {distance} m", file=sys.stderr, flush=True)
@@ -189,17 +201,19 @@ def format_table(results: dict) -> str:
         "",
         "| distance | FLIP | "
         + " | ".join(f"FLIP, {FEATURE_LABELS[f]}" for f in FEATURES)
+        + "".join(f" | FLIP, {k}×{k} samples" for k in SUPERSAMPLED_FLOORS)
         + " | flicker ×truth | ms | "
         + " | ".join(f"ms, {FEATURE_LABELS[f]}" for f in FEATURES)
         + " |",
-        "|" + " ---: |" * (4 + 2 * len(FEATURES)),
+        "|" + " ---: |" * (4 + 2 * len(FEATURES) + len(SUPERSAMPLED_FLOORS)),
     ]
     for row in results["rows"]:
         cells = [row["all"], *(row[f"no_{f}"] for f in FEATURES)]
         flips = " | ".join(f"{c['flip']:.3f}" for c in cells)
         costs = " | ".join(f"{c['ms']:.0f}" for c in cells)
+        floors = "".join(f" | {row['supersampled'][str(k)]:.3f}" for k in SUPERSAMPLED_FLOORS)
         flicker = f"{row['flicker']['ratio']:.2f}" if "flicker" in row else ""
-        lines.append(f"| {row['distance_m']:g} m | {flips} | {flicker} | {costs} |")
+        lines.append(f"| {row['distance_m']:g} m | {flips}{floors} | {flicker} | {costs} |")
     return "\n".join(lines)
 
 

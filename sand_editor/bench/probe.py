@@ -144,6 +144,7 @@ class MaterialProbe:
                    "u_ground_truth_samples": int(self.ground_truth_samples),
                    "u_relief": int(self.relief),
                    "u_sharp_ripples": 1,  # the renderer's filtering of the ripples
+                   "u_anisotropic": 1,  # and of the grain textures
                    "u_tile_variation": int(self.tile_variation)}  # fmt: skip
             for name, value in own.items():
                 set_uniform(p, name, value)  # the far-only variant has no glints

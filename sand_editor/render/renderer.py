@@ -80,6 +80,7 @@ class SandRenderer:
         self.relief = True  # grains at their depth and self-shadowed up close (sand_relief.glsl)
         self.tile_variation = True  # the grain tile laid without a repeat (tile_variation.glsl)
         self.sharp_ripples = True  # ripples filtered along each pixel's footprint (sand_far.glsl)
+        self.anisotropic = True  # grain textures read in taps along a grazing footprint
         self.shadows = True  # the sun and the moon cast shadows (render/shadows.py)
         # Each surface variant draws only the rings it can shade (off: both draw everything,
         # which the suite compares pixel for pixel).
@@ -275,6 +276,7 @@ class SandRenderer:
             "u_mode": mode_index(mode),
             "u_relief": int(self.relief),
             "u_sharp_ripples": int(self.sharp_ripples),
+            "u_anisotropic": int(self.anisotropic),
             "u_tile_variation": int(self.tile_variation),
         }
 

@@ -43,10 +43,16 @@ def test_depth_bench_writes_its_table_and_each_features_effect(tmp_path):
     rows = {row["distance_m"]: row for row in json.loads(json_path.read_text())["rows"]}
     assert set(rows) == {0.05, 10.0}
     for row in rows.values():
-        for setting in ("all", "no_relief", "no_sharp_ripples", "no_shadows"):
+        for setting in ("all", "no_relief", "no_sharp_ripples", "no_anisotropic", "no_shadows"):
             assert 0.0 <= row[setting]["flip"] <= 1.0 and row[setting]["ms"] > 0
+        # More samples per pixel bring the same renderer nearer its 8×8 truth.
+        floors = row["supersampled"]
+        assert floors["4"] < floors["2"] < row["no_anisotropic"]["flip"], row
     # The supersampled truth has the grains' relief: the flat frame is the farther from it ...
     assert rows[0.05]["no_relief"]["flip"] > 1.5 * rows[0.05]["all"]["flip"]
+    # ... the grains read in taps along the grazing footprint stay as sharp as the truth's
+    # (one level for the footprint blurs them sideways) ...
+    assert rows[0.05]["all"]["flip"] < 0.8 * rows[0.05]["no_anisotropic"]["flip"]
     # ... and ripples filtered along the footprint keep the truth's contrast better.
     assert rows[10.0]["all"]["flip"] < rows[10.0]["no_sharp_ripples"]["flip"]
     # A quarter-pixel pan changes our frames at most 1.5 times as much as it changes the truth.
