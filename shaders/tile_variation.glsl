@@ -32,8 +32,8 @@ uvec2 layer_and_grain(ivec2 texel) {
 }
 #endif
 
-const float TILE_COPY_SPACING = 0.85;  // tiles between neighbouring vertices: a hexagon < 1 tile
-const float TILE_COPY_BIAS = 3.0;      // a point's weight for its vertex, against a grain's rank
+// TILE_COPY_SPACING (tiles between neighbouring vertices) and TILE_COPY_BIAS (a point's weight
+// for its vertex, against a grain's rank) are #defined from sand_editor/render/tile_copies.py.
 const float TILE_COPY_SPREAD = 64.0;   // tiles over which the copies' offsets range
 const uint TILE_COPY_KEY = 0x5bd1e995u;
 

@@ -44,6 +44,7 @@ from sand_editor.render.far_brdf import SHADER_DEFINES as FAR_DEFINES
 from sand_editor.render.far_brdf import sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
 from sand_editor.render.shadows import SHADER_DEFINES as SHADOW_DEFINES
+from sand_editor.render.tile_copies import SHADER_DEFINES as TILE_COPY_DEFINES
 
 GENERATION_BAND_ROWS = 64  # rows of new grains per step when generation is paced
 DETAIL_MAP_SIZE = 256
@@ -94,6 +95,7 @@ SHADER_DEFINES = {
     "LOBE_TILT_MAX": repr(float(np.radians(LOBE_TILT_MAX_DEG))),
     "RELIEF_TABLE": "ivec3({}, {}, {})".format(*RELIEF_TABLE),
     "RELIEF_SAMPLES": RELIEF_SAMPLES,
+    **TILE_COPY_DEFINES,
 }
 
 
