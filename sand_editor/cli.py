@@ -143,7 +143,7 @@ def _cmd_export(args) -> int:
     if not (math.isfinite(args.patch) and MIN_PATCH_M <= args.patch <= MAX_PATCH_M):
         raise CommandError(f"--patch {args.patch}: allowed {MIN_PATCH_M} to {MAX_PATCH_M} metres")
     preset = Preset.load(preset_path(args.preset))
-    options = PatchOptions(size_m=args.patch, sphere=args.sphere)
+    options = PatchOptions(size_m=args.patch, sphere=args.sphere, tiles=args.tiles)
     steps = ExportSteps(preset, Path(args.out), args.format, size, options)
     run_with_progress(steps)
     record = steps.record
@@ -162,6 +162,11 @@ def _export_folder(args) -> int:
     if out.exists() and not out.is_dir():
         raise CommandError(
             f"{out}: is not a folder; with --format {args.format}, --out names a folder"
+        )
+    if args.tiles != 1:
+        raise CommandError(
+            f"--tiles applies to glb and gltf only; --format {args.format} draws the tile's "
+            "varied copies in its shader"
         )
     size = export_size(args.format, args.size)
     check_size(size)
@@ -393,6 +398,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     export.add_argument("--patch", type=number, default=2.0, help="edge of the patch in metres")
     export.add_argument("--sphere", action="store_true", help="put the sand sphere on the patch")
+    export.add_argument(
+        "--tiles",
+        type=integer,
+        default=1,
+        help="glb, gltf: tiles across the images, each place a copy of the tile turned and "
+        "shifted, borders along the grains: the pattern repeats this many tiles apart instead "
+        "of every tile (default 1; the images grow as many times wider)",
+    )
     export.set_defaults(run=_cmd_export)
 
     serve = sub.add_parser("serve", help="serve an exported web page on this machine")

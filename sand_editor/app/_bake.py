@@ -17,7 +17,8 @@ _PROGRESS_STEPS = 1000
 
 class BakeJob(QObject):
     """Runs ``sand_editor.bake.BakeSteps`` (or, with ``export``, the glTF export's steps into
-    ``out_dir`` as a file) on a worker thread with its own headless context.
+    ``out_dir`` as a file, its images ``tiles`` varied tiles across) on a worker thread with its
+    own headless context.
 
     Signals (delivered in the GUI thread)
     -------------------------------------
@@ -43,10 +44,11 @@ class BakeJob(QObject):
         out_dir: Path,
         parent: QObject | None = None,
         export: bool = False,
+        tiles: int = 1,
     ):
         super().__init__(parent)
         self.preset, self.size, self.out_dir = preset, size, Path(out_dir)
-        self.export = export
+        self.export, self.tiles = export, tiles
         self.verb = "Exporting" if export else "Baking"
         self._cancel = threading.Event()
         self._thread = threading.Thread(target=self._run, name="sand-bake", daemon=True)
@@ -65,6 +67,7 @@ class BakeJob(QObject):
         import moderngl
 
         from sand_editor.bake import BakeSteps
+        from sand_editor.export.gltf import PatchOptions
         from sand_editor.export.run import ExportSteps
         from sand_editor.gl import REQUIRED_GL_VERSION
 
@@ -72,7 +75,9 @@ class BakeJob(QObject):
         try:
             ctx = moderngl.create_standalone_context(require=REQUIRED_GL_VERSION, backend="egl")
             if self.export:
-                steps = ExportSteps(self.preset, self.out_dir, size=self.size, ctx=ctx)
+                options = PatchOptions(tiles=self.tiles)
+                steps = ExportSteps(self.preset, self.out_dir, size=self.size, options=options,
+                                    ctx=ctx)  # fmt: skip
             else:
                 steps = BakeSteps(self.preset, self.size, self.out_dir, ctx=ctx)
             try:

@@ -9,6 +9,7 @@ from PySide6.QtCore import QBuffer, QByteArray, QIODevice
 from PySide6.QtWidgets import QFileDialog, QInputDialog, QMessageBox
 
 from sand_editor.app._bake import BakeDialog, BakeJob
+from sand_editor.export.variation import EXPORT_TILES
 from sand_editor.files import OutputError, file_stem, write_atomic
 from sand_editor.generator.sizes import BAKE_SIZES, DEFAULT_BAKE_SIZE, DEFAULT_EXPORT_SIZE
 from sand_editor.preset import GLTF_SUFFIXES
@@ -92,12 +93,24 @@ class WindowFiles:
             return
         if Path(chosen).suffix.lower() not in (".glb", ".gltf"):
             chosen += ".glb"
-        self.bake_to(Path(chosen), DEFAULT_EXPORT_SIZE, export=True)
+        choices = [str(tiles) for tiles in EXPORT_TILES]
+        tiles, ok = QInputDialog.getItem(
+            self,
+            "Export glTF",
+            "Varied tiles across the images (the pattern repeats this many tiles apart;\n"
+            "the images grow as many times wider):",
+            choices,
+            0,
+            False,
+        )
+        if ok:
+            self.bake_to(Path(chosen), DEFAULT_EXPORT_SIZE, export=True, tiles=int(tiles))
 
-    def bake_to(self, folder: Path, size: int, export: bool = False) -> BakeDialog:
+    def bake_to(self, folder: Path, size: int, export: bool = False, tiles: int = 1) -> BakeDialog:
         """Start baking the current preset into ``folder`` (with ``export``: the glTF asset to
-        that file); returns the open progress dialog."""
-        job = BakeJob(self.model.preset, size, Path(folder), self, export=export)
+        that file, its images ``tiles`` varied tiles across); returns the open progress
+        dialog."""
+        job = BakeJob(self.model.preset, size, Path(folder), self, export=export, tiles=tiles)
         dialog = BakeDialog(job, self)
         dialog.finished.connect(lambda: self._bake_done(dialog))
         self.bake_dialog = dialog
@@ -118,7 +131,8 @@ class WindowFiles:
             )
         elif dialog.result is not None:
             if job.export:
-                message = f"Exported {job.out_dir} ({job.size}² textures)"
+                tiles = f", {job.tiles}×{job.tiles} varied tiles" if job.tiles > 1 else ""
+                message = f"Exported {job.out_dir} ({job.size}² textures{tiles})"
             else:
                 message = f"Baked {job.size}² textures into {job.out_dir}"
             self.statusBar().showMessage(message, STATUS_MESSAGE_MS)

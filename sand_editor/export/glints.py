@@ -46,9 +46,9 @@ def log_density(specular, per_tile: float) -> np.ndarray:
     return np.log(np.maximum(density, 1.0)).astype(np.float32)
 
 
-def glint_parameters(preset: Preset, specular) -> dict:
+def glint_parameters(preset: Preset, specular, tiles: int = 1) -> dict:
     """The glint model's parameters, as the exported glTF's material carries them in
-    ``extras.sand_editor.glints`` (JSON numbers)."""
+    ``extras.sand_editor.glints`` (JSON numbers), for images ``tiles`` tiles across."""
     share = float(np.mean(specular))
     mean_log = float(log_density(share, facets_per_tile(preset)))
     return {
@@ -63,7 +63,9 @@ def glint_parameters(preset: Preset, specular) -> dict:
         "facets_per_tile": facets_per_tile(preset),
         "mean_mirroring_share": share,
         "log_microfacet_density": mean_log,
-        "per_texel": "ln(max(1, specularTexture.a × facets_per_tile)), in TEXCOORD_0 tile units",
+        "tiles_per_image": tiles,
+        "per_texel": "ln(max(1, specularTexture.a × facets_per_tile)), per unit of tile area "
+        "(the images hold tiles_per_image tiles across)",
         "light_angular_radius": LIGHT_ANGULAR_RADIUS,
         "far_blend": {
             "sigmoid_a": preset.shading.sigmoid_a,

@@ -42,6 +42,7 @@ _EXTENSIONS = ["KHR_materials_ior", "KHR_materials_specular", "KHR_texture_trans
 class PatchOptions:
     size_m: float = 2.0  # edge of the square patch
     sphere: bool = False  # the sand sphere, radius a fifth of the patch, resting on it
+    tiles: int = 1  # tiles across the images, each place a varied copy (export/variation.py)
 
 
 def _specular_image(maps: MaterialMaps) -> np.ndarray:
@@ -212,16 +213,18 @@ def build_gltf(preset: Preset, maps: MaterialMaps, options: PatchOptions, image_
         GLTF_EXTRAS_KEY: {
             "preset": preset.to_dict(),
             "albedo_scale": [round(float(c), 6) for c in maps.albedo_scale],
-            "texture_size": maps.size,
-            "glints": check_finite(glint_parameters(preset, maps.specular)),
+            "texture_size": maps.size // maps.tiles,
+            "tiles": maps.tiles,
+            "glints": check_finite(glint_parameters(preset, maps.specular, maps.tiles)),
         }
     }
-    tiles = options.size_m * preset.shading.uv_scale
-    gltf.materials.append(_material(preset.name, preset, roles, (tiles, tiles), extras))
+    # The images hold maps.tiles tiles across: they repeat that many times less often.
+    repeats = options.size_m * preset.shading.uv_scale / maps.tiles
+    gltf.materials.append(_material(preset.name, preset, roles, (repeats, repeats), extras))
     primitives = [b.primitive(plane_mesh(options.size_m), 0)]
     if options.sphere:
         radius = options.size_m / 5.0
-        around = 2.0 * math.pi * radius * preset.shading.uv_scale
+        around = 2.0 * math.pi * radius * preset.shading.uv_scale / maps.tiles
         gltf.materials.append(
             _material(f"{preset.name} sphere", preset, roles, (around, around / 2.0), extras)
         )

@@ -59,6 +59,7 @@ class MaterialMaps:
     height: np.ndarray  # (n, n) 0 to 1: the grain profile over its tallest
     albedo_scale: np.ndarray  # (3,) base colour over grain albedo
     facets_per_tile: float = 0.0  # facets of a wholly mirroring texel per tile (export/glints.py)
+    tiles: int = 1  # tiles across the maps (export/variation.py lays out several)
 
     @property
     def size(self) -> int:
@@ -69,6 +70,7 @@ class MaterialMaps:
         return MaterialMaps(
             self.base_color[band], self.normal[band], self.roughness[band], self.specular[band],
             self.occlusion[band], self.height[band], self.albedo_scale, self.facets_per_tile,
+            self.tiles,
         )  # fmt: skip
 
 

@@ -7,6 +7,7 @@ from pathlib import Path
 from sand_editor.export.gltf import FORMATS, PatchOptions, export_files
 from sand_editor.export.maps import material_maps
 from sand_editor.export.steps import Steps, generation_steps
+from sand_editor.export.variation import CopyLayout, check_tiles, grain_keys, varied_maps
 from sand_editor.files import check_regular_target, write_atomic, write_folder
 from sand_editor.generator.sizes import DEFAULT_EXPORT_SIZE
 from sand_editor.preset import Preset
@@ -54,12 +55,17 @@ class ExportSteps(Steps):
         out = Path(out)
         fmt = format_for(out, fmt)
         check_regular_target(out)
+        check_tiles((options or PatchOptions()).tiles, size)
         super().__init__(self._run(preset, out, fmt, size, options or PatchOptions(), ctx))
 
     def _run(self, preset, out, fmt, size, options, ctx):
         textures = yield from generation_steps(preset, size, ctx, share=0.5)
         yield 0.5, "Making the material maps"
         maps = material_maps(preset, textures)
+        if options.tiles > 1:
+            yield 0.6, f"Laying out {options.tiles}×{options.tiles} varied tiles"
+            layout = CopyLayout(grain_keys(textures), options.tiles, preset.generation.seed)
+            maps = varied_maps(maps, layout)
         del textures  # the maps keep what they need of it: a 4096² tile's grains are 0.6 GB
         yield 0.7, "Encoding the images"
         files = export_files(preset, maps, out, fmt, options)

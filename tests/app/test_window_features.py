@@ -21,6 +21,7 @@ from sand_editor.preset import Preset
 from sand_editor.resources import bundled_preset
 from tests.app.conftest import run_python, show_and_wait_for_tile
 from tests.app.test_view3d import TIMEOUT_MS, open_3d
+from tests.export.test_gltf import glb_json
 
 pytestmark = pytest.mark.qt
 
@@ -189,14 +190,17 @@ def test_export_from_the_window_writes_a_glb_that_opens_as_a_new_preset(
 ):
     window = make_window(qtbot, settings_file, Preset.load(bundled_preset("red-desert")))
     out = tmp_path / "red.glb"
-    dialog = window.bake_to(out, 128, export=True)
+    dialog = window.bake_to(out, 128, export=True, tiles=2)
     assert dialog.windowTitle() == "Export glTF"
     assert not window.export_action.isEnabled() and not window.bake_action.isEnabled()
     qtbot.waitUntil(lambda: window.bake_dialog is None, timeout=TIMEOUT_MS)
     assert dialog.error is None and dialog.result["format"] == "glb"
     assert out.is_file() and not list(tmp_path.glob(".red.glb.*")), "no temporary left"
     assert "Exported" in window.statusBar().currentMessage()
+    assert "2×2 varied tiles" in window.statusBar().currentMessage()
     assert window.export_action.isEnabled()
+    material = glb_json(out)["materials"][0]
+    assert material["extras"]["sand_editor"]["tiles"] == 2
 
     window.new_preset()
     assert window.open_path(out)

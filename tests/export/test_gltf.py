@@ -193,6 +193,9 @@ def test_the_export_command_writes_a_glb_and_says_so(gl_ctx, tmp_path, capsys):
         (["--out", "x.glb", "--patch", "0"], "--patch 0.0: allowed 0.01 to 1000"),
         (["--out", "x.glb", "--patch", "nan"], "--patch nan: allowed"),
         (["--out", "x.glb", "--size", "10"], "10"),
+        (["--out", "x.glb", "--tiles", "0"], "tiles 0 is out of range for texture size 1024"),
+        (["--out", "x.glb", "--size", "2048", "--tiles", "5"], "allowed 1 to 4"),
+        (["--out", "x", "--format", "web", "--tiles", "2"], "--tiles applies to glb and gltf"),
     ],
 )
 def test_bad_export_arguments_give_one_line(tmp_path, capsys, argv, message):

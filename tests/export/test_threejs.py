@@ -83,3 +83,32 @@ def test_threejs_shows_the_export_as_our_far_field(root, gl_ctx, tmp_path, name)
     # (pale-quartz, the most even, spreads 1.8–2.8 % per channel).
     spread = theirs[HEIGHT - 20 :, :, :3].std(axis=(0, 1)) / theirs_mean
     assert np.all(spread > 0.01), spread
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_threejs_shows_no_tile_grid_when_the_export_varies_its_tiles(root, tmp_path):
+    """The issue's measure of repetition (bench repetition's grid strength: the autocorrelation
+    of the ground's luminance a tile away, over the neighbouring lags) on three.js's frames of
+    the patch straight down from 1 m: the tile repeated shows its grid, four varied tiles do not."""
+    from sand_editor.bench.repetition import TARGET, grid_strength, ground_window, sample
+    from sand_editor.colour import luminance
+    from sand_editor.render.camera import camera_at_distance
+
+    preset = Preset.load(bundled_preset("paper-default"))
+    width, height = 640, 360
+    camera = camera_at_distance(1.0, 90.0, width / height)
+    points = ground_window(camera, preset.shading.uv_scale, (width, height))
+    strength = {}
+    for tiles in (1, 4):
+        out = tmp_path / f"tiles{tiles}.glb"
+        options = PatchOptions(size_m=4.0, tiles=tiles)
+        for _ in ExportSteps(preset, out, size=256, options=options):
+            pass
+        frame = render_threejs(
+            out, camera.view, camera.projection, sun_direction(), np.full(3, 3.0), width, height
+        )["pixels"]
+        assert np.all(frame[..., 3] > 0.0), "the patch fills the frame"
+        strength[tiles] = grid_strength(sample(luminance(frame[..., :3]), points))
+    assert strength[1] > 2 * TARGET, strength
+    assert strength[4] <= TARGET, strength
