@@ -10,9 +10,10 @@
 // light finds how far the grains in front rise above it (a soft shadow). Both fade in as a
 // grain cell grows from RELIEF_FADE_PX.x to .y of the footprint's taps (a pixel's width across,
 // a share of its length along a grazing view: sand_surface.glsl), and nothing of it runs below
-// that, so mid and far range pay nothing. What the shadows take from a pixel of many grains is not lost
-// there: the material measures its mean per light and eye direction (relief_visibility.frag)
-// and the far range, and the close range where the relief fades, are lit by that.
+// that, so mid and far range pay nothing. What the shadows take from a pixel of many grains is
+// not lost there: the material measures its mean per light and eye direction
+// (relief_visibility.frag) and the far range, and the close range where the relief fades, are
+// lit by that.
 
 uniform float u_grain_cell;  // a grain cell's edge, in tiles (1 / the generator's period)
 uniform int u_relief;        // 1: grains with relief; 0: flat (the relief's cost measured apart)

@@ -264,22 +264,20 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     f.dy = dFdy(f.tc);
     Shaded c;
     // The footprint's level as one square (the copies' borders and the reference's boost
-    // scale with it) and the level its taps read.
+    // scale with it).
     float texels = max(length(f.dx), length(f.dy)) * u_texture_size;
     float footprint_lod = clamp(log2(max(texels, 1e-8)), 0.0, u_max_lod);
-    Taps taps = anisotropic_taps(f.dx, f.dy);
-    c.lod = clamp(log2(max(tap_texels(taps), 1e-8)), 0.0, u_max_lod);
     if (u_tile_variation != 0) {
-        // The tile's copy at this point (tile_variation.glsl), shaded in its own axes; its
-        // symmetry keeps the footprint's lengths, so the taps only turn with it.
+        // The tile's copy at this point (tile_variation.glsl), shaded in its own axes.
         TileCopy copy = tile_copy(f.tc, footprint_lod);
         f.tc = copy.tc;
         f.dx = copy.axes * f.dx;
         f.dy = copy.axes * f.dy;
-        taps.step = copy.axes * taps.step;
-        taps.across = copy.axes * taps.across;
         s = in_copy_axes(s, copy.axes);
     }
+    // The footprint's taps, in the copy's axes, and the level they read.
+    Taps taps = anisotropic_taps(f.dx, f.dy);
+    c.lod = clamp(log2(max(tap_texels(taps), 1e-8)), 0.0, u_max_lod);
     lights_in_tangent(s, L, f);
     // The light that reaches the grains: the pixel's own shadows where the relief is drawn,
     // their mean over many grains where it is not (as far away), and between the two as the

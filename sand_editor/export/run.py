@@ -55,8 +55,9 @@ class ExportSteps(Steps):
         out = Path(out)
         fmt = format_for(out, fmt)
         check_regular_target(out)
-        check_tiles((options or PatchOptions()).tiles, size)
-        super().__init__(self._run(preset, out, fmt, size, options or PatchOptions(), ctx))
+        options = options or PatchOptions()
+        check_tiles(options.tiles, size)
+        super().__init__(self._run(preset, out, fmt, size, options, ctx))
 
     def _run(self, preset, out, fmt, size, options, ctx):
         textures = yield from generation_steps(preset, size, ctx, share=0.5)
