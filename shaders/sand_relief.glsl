@@ -10,7 +10,9 @@
 // light finds how far the grains in front rise above it (a soft shadow). Both fade in as a
 // grain cell grows from RELIEF_FADE_PX.x to .y of the footprint's taps (a pixel's width across,
 // a share of its length along a grazing view: sand_surface.glsl), and nothing of it runs below
-// that, so mid and far range pay nothing. What the shadows take from a pixel of many grains is
+// that, so mid and far range pay nothing. Where it fades out, the footprint is read where the
+// eye's ray meets the grains on average (mean_relief_shift), so the grains do not slide
+// towards the eye as the view draws back. What the shadows take from a pixel of many grains is
 // not lost there: the material measures its mean per light and eye direction
 // (relief_visibility.frag) and the far range, and the close range where the relief fades, are
 // lit by that.
@@ -31,6 +33,7 @@ const float MIN_RELIEF_COSINE = 0.15;  // grazing rays are cut at this angle's r
 
 struct Relief {
     vec2 tc;          // where the eye's ray meets the grains, in tiles
+    float depth;      // how deep, in RELIEF_DEPTH_CELLS grain cells
     float sun;        // the share of the sun's (and the moon's) light that reaches it
     float moon;
 };
@@ -59,23 +62,36 @@ float relief_shadow(vec2 tc, float depth, vec3 l, float depth_tc, float lod) {
     return 1.0 - clamp(SHADOW_SOFTNESS * blocked, 0.0, 1.0);
 }
 
-// The mean share of light along tangent-space l that reaches the grains an eye along e sees.
-float mean_relief_visibility(vec3 l, vec3 e) {
-    if (u_relief == 0 || l.z <= 0.0) return 1.0;
+// The table's entry for tangent-space l and e: x the mean share of light along l that reaches
+// the grains an eye along e sees, y the mean depth at which that eye's ray meets them.
+vec2 mean_relief(vec3 l, vec3 e) {
     float across = length(l.xy) * length(e.xy);
     float azimuth = across > 1e-8 ? acos(clamp(dot(l.xy, e.xy) / across, -1.0, 1.0)) : 0.0;
     vec3 at = vec3(clamp(l.z, 0.0, 1.0), clamp(e.z, 0.0, 1.0), azimuth / PI);
     vec3 size = vec3(RELIEF_TABLE);
-    return texture(u_relief_visibility, (at * (size - 1.0) + 0.5) / size).r;
+    return texture(u_relief_visibility, (at * (size - 1.0) + 0.5) / size).rg;
+}
+
+float mean_relief_visibility(vec3 l, vec3 e) {
+    if (u_relief == 0 || l.z <= 0.0) return 1.0;
+    return mean_relief(l, e).x;
+}
+
+// Where the eye's ray along e meets the grains on average, from the shading point, in tiles:
+// a footprint of many grains shows them there, not at their tops, so that they do not slide
+// under the eye as the relief fades out of its footprint. The depth is the same for every
+// light: the table's zenith entry is read.
+vec2 mean_relief_shift(vec3 e) {
+    if (u_relief == 0) return vec2(0.0);
+    float depth = mean_relief(vec3(0.0, 0.0, 1.0), e).y;
+    return -e.xy / max(e.z, MIN_RELIEF_COSINE) * (RELIEF_DEPTH_CELLS * u_grain_cell * depth);
 }
 
 // The eye's ray through the grains (tangent-space `e` towards the eye, `l0`, `l1` towards the
-// lights, `lit` whether each shines here at all), with the parallax at weight w in (0, 1]; the
-// shadows are the full relief's. A light that does not shine (below the horizon, or in the
-// scene's shadow) is not marched.
-Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float w, float lod) {
-    float full_depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell;
-    float depth_tc = full_depth_tc * w;
+// lights, `lit` whether each shines here at all). A light that does not shine (below the
+// horizon, or in the scene's shadow) is not marched.
+Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float lod) {
+    float depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell;
     vec2 step_tc = -e.xy / max(e.z, MIN_RELIEF_COSINE) * depth_tc / float(RELIEF_STEPS);
     float step_depth = 1.0 / float(RELIEF_STEPS);
     float depth = 0.0, ground = 1.0 - relief_height(tc, lod);
@@ -94,7 +110,8 @@ Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float w, float lo
     float hit_depth = mix(previous_depth, depth, t);
     Relief r;
     r.tc = tc + step_tc * (hit_depth / step_depth);
-    r.sun = lit.x ? relief_shadow(r.tc, hit_depth, l0, full_depth_tc, lod) : 1.0;
-    r.moon = lit.y ? relief_shadow(r.tc, hit_depth, l1, full_depth_tc, lod) : 1.0;
+    r.depth = hit_depth;
+    r.sun = lit.x ? relief_shadow(r.tc, hit_depth, l0, depth_tc, lod) : 1.0;
+    r.moon = lit.y ? relief_shadow(r.tc, hit_depth, l1, depth_tc, lod) : 1.0;
     return r;
 }

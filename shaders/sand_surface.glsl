@@ -285,12 +285,14 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     vec3 e = normalize(f.to_eye);
     vec2 reaching = vec2(mean_relief_visibility(f.light0, e), mean_relief_visibility(f.light1, e));
     float relief = relief_weight(tap_texels(taps));
+    vec2 seen_tc = f.tc + mean_relief_shift(e);
     if (relief > 0.0) {
         // The grains at their depth for this eye, and the light that reaches where it looks.
-        Relief r = relief_at(f.tc, e, f.light0, f.light1, bvec2(f.lit0, f.lit1), relief, c.lod);
-        f.tc = r.tc;
+        Relief r = relief_at(f.tc, e, f.light0, f.light1, bvec2(f.lit0, f.lit1), c.lod);
+        seen_tc = mix(seen_tc, r.tc, relief);
         reaching = mix(reaching, vec2(r.sun, r.moon), relief);
     }
+    f.tc = seen_tc;
     L.sun_radiance *= reaching.x;
     L.moon_radiance *= reaching.y;
     f.lit0 = f.lit0 && reaching.x > 0.0;

@@ -178,15 +178,16 @@ class SandMaterial:
         self._visibility_program = keep(
             fullscreen_program(ctx, "relief_visibility.frag", SHADER_DEFINES)
         )
-        self._visibility_target = keep(ctx.texture((lights * azimuths, eyes), 1, dtype="f4"))
+        self._visibility_target = keep(ctx.texture((lights * azimuths, eyes), 2, dtype="f4"))
         self._visibility_fbo = keep(ctx.framebuffer([self._visibility_target]))
         self.relief_visibility_texture = keep(
-            ctx.texture3d((lights, eyes, azimuths), 1, dtype="f4")
+            ctx.texture3d((lights, eyes, azimuths), 2, dtype="f4")
         )
         self.relief_visibility_texture.repeat_x = False
         self.relief_visibility_texture.repeat_y = False
         self.relief_visibility_texture.repeat_z = False
         self.relief_visibility = np.ones((azimuths, eyes, lights), dtype=np.float32)
+        self.relief_depth = np.zeros((azimuths, eyes, lights), dtype=np.float32)
         self.detail = self._map(detail_slopes(DETAIL_MAP_SIZE, seed=3))
 
     @staticmethod
@@ -316,11 +317,12 @@ class SandMaterial:
         self.average_albedo = texel[:3].copy()
         self.lobe_correction = self._measure_lobe_correction()
         if new_grains:
-            self.relief_visibility = self._measure_relief_visibility()
+            self.relief_visibility, self.relief_depth = self._measure_relief_visibility()
 
-    def _measure_relief_visibility(self) -> np.ndarray:
-        """The grains' mean shadowing of a light as an eye sees them, (azimuth, eye cosine,
-        light cosine) (relief_visibility.frag), into the texture the surface reads."""
+    def _measure_relief_visibility(self) -> tuple[np.ndarray, np.ndarray]:
+        """The grains' mean shadowing of a light as an eye sees them, and the mean depth at
+        which the eye's ray meets them (in RELIEF_DEPTH_CELLS grain cells), each (azimuth, eye
+        cosine, light cosine) (relief_visibility.frag), into the texture the surface reads."""
         program = self._visibility_program
         self.albedo.use(location=0)
         set_uniform(program, "u_albedo", 0)
@@ -331,9 +333,9 @@ class SandMaterial:
             self.ctx.viewport = (0, 0, lights * azimuths, eyes)
             draw_fullscreen(self.ctx, program)
         flat = np.frombuffer(read_without_gil(self._visibility_target), dtype=np.float32)
-        table = flat.reshape(eyes, azimuths, lights).transpose(1, 0, 2).copy()
+        table = flat.reshape(eyes, azimuths, lights, 2).transpose(1, 0, 2, 3).copy()
         self.relief_visibility_texture.write(table.tobytes())
-        return table
+        return table[..., 0].copy(), table[..., 1].copy()
 
     def _measure_lobe_correction(self) -> np.ndarray:
         """The rotated facet lobe's light over the slope moments' (facet_lobe.py), measured on
