@@ -91,7 +91,9 @@ vec2 mean_relief_shift(vec3 e) {
 // lights, `lit` whether each shines here at all). A light that does not shine (below the
 // horizon, or in the scene's shadow) is not marched.
 Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float lod) {
-    float depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell;
+    // A grazing eye would see each grain's steep side as its top's texel smeared down the wall
+    // (fins along the view): the relief flattens as the eye's cosine falls below 0.3.
+    float depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell * smoothstep(0.05, 0.3, e.z);
     vec2 step_tc = -e.xy / max(e.z, MIN_RELIEF_COSINE) * depth_tc / float(RELIEF_STEPS);
     float step_depth = 1.0 / float(RELIEF_STEPS);
     float depth = 0.0, ground = 1.0 - relief_height(tc, lod);

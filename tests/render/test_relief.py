@@ -194,3 +194,20 @@ def test_grains_stay_where_they_are_seen_as_the_relief_fades(renderer, gl_clean)
     # tops where the relief fades out gave 0.20 here and 0.44 half a pixel up.
     assert at[0] > 0.4, at
     assert at[0] > max(at[-k // 2], at[k // 2]) + 0.1, at
+
+
+def test_a_grazing_eye_sees_grains_not_fins(renderer, gl_clean):
+    """Along a grazing ray a height field shows its steep sides as each top's texel smeared down
+    the wall, stripes along the view; the relief fades as the eye's cosine falls to 0.3 and
+    below, so the ground changes from column to column about as much as flat grains do."""
+    camera = _camera(renderer, 0.05, 4.0)
+
+    def across_over_along(relief: bool) -> float:
+        lum = _draw(renderer, camera, 12.0, relief)[0][H // 2 :].astype(np.float64).mean(axis=2)
+        lum -= lum.mean(axis=1, keepdims=True)
+        along = np.abs(np.diff(lum, axis=0)).mean()
+        return float(np.abs(np.diff(lum, axis=1)).mean() / along)
+
+    flat, deep = across_over_along(False), across_over_along(True)
+    # Measured 0.265 flat, 0.261 with relief; 0.377 before the relief faded at grazing eyes.
+    assert deep < 1.2 * flat, (flat, deep)
