@@ -269,7 +269,9 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     float footprint_lod = clamp(log2(max(texels, 1e-8)), 0.0, u_max_lod);
     if (u_tile_variation != 0) {
         // The tile's copy at this point (tile_variation.glsl), shaded in its own axes.
-        TileCopy copy = tile_copy(f.tc, footprint_lod);
+        // How many grain cells a pixel spans, as a power of 2.
+        float cells_lod = footprint_lod - log2(max(u_grain_cell * u_texture_size, 1.0));
+        TileCopy copy = tile_copy(f.tc, cells_lod);
         f.tc = copy.tc;
         f.dx = copy.axes * f.dx;
         f.dy = copy.axes * f.dy;

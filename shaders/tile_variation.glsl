@@ -93,12 +93,13 @@ float grain_rank(TileCopy c) {
     return hash01(lowbias32(layer_grain.y ^ lowbias32(layer_grain.x ^ c.key)));
 }
 
-// The copy that shows at tc, where the footprint's finest-level mip is lod: its nearest
-// vertex's, or in the band along the hexagons' edges the copy whose grain there ranks highest
-// once each copy's weight is added. The band narrows with the footprint (as 2^−lod), so that it
-// stays as many texels wide: where grains are below a pixel, a hash per grain would only
-// flicker.
-TileCopy tile_copy(vec2 tc, float lod) {
+// The copy that shows at tc, where a pixel spans 2^cells_lod grain cells: its nearest vertex's,
+// or in the band along the hexagons' edges the copy whose grain there ranks highest once each
+// copy's weight is added. While grains are a pixel or more (cells_lod ≤ 0) the band is as wide
+// at every distance, so a pixel shows the copy that the smaller pixels of a nearer or sharper
+// view show there; once grains fall below a pixel it narrows (as 2^−cells_lod), since there a
+// hash per grain would only flicker.
+TileCopy tile_copy(vec2 tc, float cells_lod) {
     ivec2 vertex[3];
     vec3 weight;
     copy_vertices(tc, vertex, weight);
@@ -106,7 +107,7 @@ TileCopy tile_copy(vec2 tc, float lod) {
                                        : (weight.y >= weight.z ? 1 : 2);
     TileCopy own = copy_of_vertex(vertex[nearest], tc);
     TileCopy best = own;
-    float bias = TILE_COPY_BIAS * exp2(max(lod, 0.0));
+    float bias = TILE_COPY_BIAS * exp2(max(cells_lod, 0.0));
     // Away from the hexagons' edges no rank outweighs the nearest vertex: no fetch is made.
     float w_best = weight[nearest];
     float w_least = min(min(weight.x, weight.y), weight.z);
