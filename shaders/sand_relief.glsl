@@ -33,7 +33,7 @@ const float MIN_RELIEF_COSINE = 0.15;  // grazing rays are cut at this angle's r
 
 struct Relief {
     vec2 tc;          // where the eye's ray meets the grains, in tiles
-    float depth;      // how deep, in RELIEF_DEPTH_CELLS grain cells
+    float depth;      // how deep, as a share of relief_depth_tc
     float sun;        // the share of the sun's (and the moon's) light that reaches it
     float moon;
 };
@@ -62,6 +62,13 @@ float relief_shadow(vec2 tc, float depth, vec3 l, float depth_tc, float lod) {
     return 1.0 - clamp(SHADOW_SOFTNESS * blocked, 0.0, 1.0);
 }
 
+// How deep the grains reach below the shading point for an eye along e, in tiles: a grazing eye
+// would see each grain's steep side as its top's texel smeared down the wall (fins along the
+// view), so the relief flattens as the eye's cosine falls below 0.3.
+float relief_depth_tc(vec3 e) {
+    return RELIEF_DEPTH_CELLS * u_grain_cell * smoothstep(0.05, 0.3, e.z);
+}
+
 // The table's entry for tangent-space l and e: x the mean share of light along l that reaches
 // the grains an eye along e sees, y the mean depth at which that eye's ray meets them.
 vec2 mean_relief(vec3 l, vec3 e) {
@@ -84,16 +91,14 @@ float mean_relief_visibility(vec3 l, vec3 e) {
 vec2 mean_relief_shift(vec3 e) {
     if (u_relief == 0) return vec2(0.0);
     float depth = mean_relief(vec3(0.0, 0.0, 1.0), e).y;
-    return -e.xy / max(e.z, MIN_RELIEF_COSINE) * (RELIEF_DEPTH_CELLS * u_grain_cell * depth);
+    return -e.xy / max(e.z, MIN_RELIEF_COSINE) * (relief_depth_tc(e) * depth);
 }
 
 // The eye's ray through the grains (tangent-space `e` towards the eye, `l0`, `l1` towards the
 // lights, `lit` whether each shines here at all). A light that does not shine (below the
 // horizon, or in the scene's shadow) is not marched.
 Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float lod) {
-    // A grazing eye would see each grain's steep side as its top's texel smeared down the wall
-    // (fins along the view): the relief flattens as the eye's cosine falls below 0.3.
-    float depth_tc = RELIEF_DEPTH_CELLS * u_grain_cell * smoothstep(0.05, 0.3, e.z);
+    float depth_tc = relief_depth_tc(e);
     vec2 step_tc = -e.xy / max(e.z, MIN_RELIEF_COSINE) * depth_tc / float(RELIEF_STEPS);
     float step_depth = 1.0 / float(RELIEF_STEPS);
     float depth = 0.0, ground = 1.0 - relief_height(tc, lod);

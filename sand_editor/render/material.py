@@ -321,8 +321,9 @@ class SandMaterial:
 
     def _measure_relief_visibility(self) -> tuple[np.ndarray, np.ndarray]:
         """The grains' mean shadowing of a light as an eye sees them, and the mean depth at
-        which the eye's ray meets them (in RELIEF_DEPTH_CELLS grain cells), each (azimuth, eye
-        cosine, light cosine) (relief_visibility.frag), into the texture the surface reads."""
+        which the eye's ray meets them (a share of sand_relief.glsl's relief_depth_tc), each
+        (azimuth, eye cosine, light cosine) (relief_visibility.frag), into the texture the
+        surface reads."""
         program = self._visibility_program
         self.albedo.use(location=0)
         set_uniform(program, "u_albedo", 0)
