@@ -187,7 +187,6 @@ class SandMaterial:
         self.relief_visibility_texture.repeat_y = False
         self.relief_visibility_texture.repeat_z = False
         self.relief_visibility = np.ones((azimuths, eyes, lights), dtype=np.float32)
-        self.relief_depth = np.zeros((azimuths, eyes, lights), dtype=np.float32)
         self.detail = self._map(detail_slopes(DETAIL_MAP_SIZE, seed=3))
 
     @staticmethod
@@ -317,13 +316,13 @@ class SandMaterial:
         self.average_albedo = texel[:3].copy()
         self.lobe_correction = self._measure_lobe_correction()
         if new_grains:
-            self.relief_visibility, self.relief_depth = self._measure_relief_visibility()
+            self.relief_visibility = self._measure_relief_visibility()
 
-    def _measure_relief_visibility(self) -> tuple[np.ndarray, np.ndarray]:
-        """The grains' mean shadowing of a light as an eye sees them, and the mean depth at
-        which the eye's ray meets them (a share of sand_relief.glsl's relief_depth_tc), each
-        (azimuth, eye cosine, light cosine) (relief_visibility.frag), into the texture the
-        surface reads."""
+    def _measure_relief_visibility(self) -> np.ndarray:
+        """The grains' mean shadowing of a light as an eye sees them, (azimuth, eye cosine,
+        light cosine) (relief_visibility.frag), into the texture the surface reads with the
+        mean depth at which the eye's ray meets them (a share of sand_relief.glsl's
+        relief_depth_tc) beside it."""
         program = self._visibility_program
         self.albedo.use(location=0)
         set_uniform(program, "u_albedo", 0)
@@ -336,7 +335,7 @@ class SandMaterial:
         flat = np.frombuffer(read_without_gil(self._visibility_target), dtype=np.float32)
         table = flat.reshape(eyes, azimuths, lights, 2).transpose(1, 0, 2, 3).copy()
         self.relief_visibility_texture.write(table.tobytes())
-        return table[..., 0].copy(), table[..., 1].copy()
+        return table[..., 0].copy()
 
     def _measure_lobe_correction(self) -> np.ndarray:
         """The rotated facet lobe's light over the slope moments' (facet_lobe.py), measured on

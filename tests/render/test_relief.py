@@ -11,7 +11,7 @@ from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import bundled_preset
-from tests.render.test_renderer import scene_hdr
+from tests.render.test_renderer import grain_detail_correlations, scene_hdr
 
 pytestmark = pytest.mark.gl
 
@@ -157,39 +157,14 @@ def test_grazing_views_and_suns_give_finite_relief(renderer, gl_clean, pitch, ho
     assert np.isfinite(hdr).all()
 
 
-def _detail(image: np.ndarray) -> np.ndarray:
-    """The ground's luminance less its 5×5 box mean: the grains, without the light's slow
-    change."""
-    lum = image[H // 2 + 8 : -8, 8:-8].mean(axis=-1)
-    padded = np.pad(lum, 2, mode="edge")
-    rows, cols = lum.shape
-    box = sum(padded[i : i + rows, j : j + cols] for i in range(5) for j in range(5))
-    return lum - box / 25.0
-
-
 def test_grains_stay_where_they_are_seen_as_the_relief_fades(renderer, gl_clean):
     """Where the relief fades out of a pixel, the pixel still shows the grains at their mean
     depth: the frame matches the same view drawn 8× larger (relief at full weight there) and
     averaged, at no shift, rather than half a pixel towards the eye."""
     camera = _camera(renderer, 1.0, 15.0)
     renderer.relief = True
-    sky = sky_at(16.5)
-    renderer.render_to_array(W, H, FrameRequest(camera, sky, "close"))
-    small = scene_hdr(renderer)[::-1, :, :3].astype(np.float64)
     k = 8
-    renderer.render_to_array(W * k, H * k, FrameRequest(camera, sky, "close"))
-    big = scene_hdr(renderer)[::-1, :, :3].astype(np.float64)
-    # Sparkles are a few bright sub-pixels that no single sample places: the grains' light only.
-    cap = 1.5 * float(np.median(small[H // 2 :]))
-    small, big = np.minimum(small, cap), np.minimum(big, cap)
-    ours = _detail(small)
-
-    def correlation(shift_big_px: int) -> float:
-        shifted = np.roll(big, shift_big_px, axis=0).reshape(H, k, W, k, 3).mean(axis=(1, 3))
-        truth = _detail(shifted)
-        return float(np.corrcoef(ours.ravel(), truth.ravel())[0, 1])
-
-    at = {shift: correlation(shift) for shift in (-k // 2, 0, k // 2)}
+    at = grain_detail_correlations(renderer, camera, sky_at(16.5), (W, H), (-k // 2, 0, k // 2), k)
     # Measured 0.48 at no shift, 0.29 and 0.31 half a pixel either way; grains drawn at their
     # tops where the relief fades out gave 0.20 here and 0.44 half a pixel up.
     assert at[0] > 0.4, at

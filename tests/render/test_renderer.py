@@ -20,6 +20,38 @@ def scene_hdr(renderer) -> np.ndarray:
     return data.reshape(texture.size[1], texture.size[0], 4)
 
 
+def grain_detail_correlations(
+    renderer, camera, sky, size: tuple[int, int], shifts=(0,), k: int = 8
+) -> dict[int, float]:
+    """How well the grains of the close range's frame of ``size`` match those of the same view
+    drawn k× larger and averaged k×k, moved down by each of ``shifts`` of the larger frame's
+    pixels: the correlation over the ground of the luminance less its 5×5 box mean (the light's
+    slow change), sparkles capped at 1.5× the median (a few bright sub-pixels that no single
+    sample places)."""
+    width, height = size
+    frames = []
+    for scale in (1, k):
+        renderer.render_to_array(width * scale, height * scale, FrameRequest(camera, sky, "close"))
+        frames.append(scene_hdr(renderer)[::-1, :, :3].astype(np.float64))
+    small, big = frames
+    cap = 1.5 * float(np.median(small[height // 2 :]))
+    small, big = np.minimum(small, cap), np.minimum(big, cap)
+
+    def detail(image: np.ndarray) -> np.ndarray:
+        lum = image[height // 2 + 8 : -8, 8:-8].mean(axis=-1)
+        padded = np.pad(lum, 2, mode="edge")
+        rows, cols = lum.shape
+        box = sum(padded[i : i + rows, j : j + cols] for i in range(5) for j in range(5))
+        return (lum - box / 25.0).ravel()
+
+    ours = detail(small)
+    correlation = {}
+    for shift in shifts:
+        shifted = np.roll(big, shift, axis=0).reshape(height, k, width, k, 3).mean(axis=(1, 3))
+        correlation[shift] = float(np.corrcoef(ours, detail(shifted))[0, 1])
+    return correlation
+
+
 def ground_camera(renderer, distance=4.0, pitch=30.0, heading=0.0):
     return camera_at_distance(distance, pitch, ASPECT, renderer.terrain.height, heading_deg=heading)
 

@@ -105,25 +105,16 @@ def test_each_copy_turns_its_slopes_with_its_grains(gl_ctx, gl_clean):
         material.release()
 
 
-def _grain_detail(lum: np.ndarray) -> np.ndarray:
-    """Luminance less its 5×5 box mean: the grains, without the light's slow change."""
-    padded = np.pad(lum, 2, mode="edge")
-    rows, cols = lum.shape
-    box = sum(padded[i : i + rows, j : j + cols] for i in range(5) for j in range(5))
-    return lum - box / 25.0
-
-
 def test_a_pixel_shows_the_copy_smaller_pixels_show_there(gl_ctx, gl_clean):
     """While grains span a pixel or more, the band where copies meet is as wide at every pixel
     size, so a frame's grains are those of the same view drawn 8× larger and averaged about as
     well with the copies as with the tile repeated."""
     from sand_editor.render.camera import camera_at_distance
     from sand_editor.render.renderer import SandRenderer
-    from sand_editor.render.request import FrameRequest
     from sand_editor.render.sky import sky_at
-    from tests.render.test_renderer import scene_hdr
+    from tests.render.test_renderer import grain_detail_correlations
 
-    width, height, k = 320, 180, 8
+    width, height = 320, 180
     material = SandMaterial(gl_ctx, 512)
     flat = {"shading.ripple_strength": 0.0, **NO_DETAIL}
     material.update(Preset.load(bundled_preset("paper-default")).replace(**flat))
@@ -135,23 +126,11 @@ def test_a_pixel_shows_the_copy_smaller_pixels_show_there(gl_ctx, gl_clean):
         camera = camera_at_distance(
             0.3, 15.0, width / height, lambda x, z: float(terrain.height(x, z))
         )
-        sky = sky_at(12.0)
         correlation = {}
         for varied in (True, False):
             renderer.tile_variation = varied
-            frames = []
-            for scale in (1, k):
-                renderer.render_to_array(
-                    width * scale, height * scale, FrameRequest(camera, sky, "close")
-                )
-                frames.append(scene_hdr(renderer)[::-1, :, :3].astype(np.float64))
-            small, big = frames
-            cap = 1.5 * float(np.median(small[height // 2 :]))  # sparkles: no sample places them
-            small, big = np.minimum(small, cap), np.minimum(big, cap)
-            big = big.reshape(height, k, width, k, 3).mean(axis=(1, 3))
-            ground = (slice(height // 2 + 8, -8), slice(8, -8))
-            ours, truth = (_grain_detail(f[ground].mean(axis=2)).ravel() for f in (small, big))
-            correlation[varied] = float(np.corrcoef(ours, truth)[0, 1])
+            at = grain_detail_correlations(renderer, camera, sky_at(12.0), (width, height))
+            correlation[varied] = at[0]
     finally:
         renderer.release()
         material.release()
