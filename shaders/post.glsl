@@ -2,8 +2,8 @@
 #include "common.glsl"
 // Post-processing of the HDR scene, one program per define: BLOOM_DOWNSAMPLE (13 taps),
 // BLOOM_UPSAMPLE (3×3 tent, added onto the next larger level), and RESOLVE (bloom mix, exposure,
-// ACES tone mapping and sRGB encoding into the caller's framebuffer, or raw values for debug
-// views), METER (the log of the scene's luminance, for the exposure's log-average) and
+// ACES tone mapping over the spread of each pixel's light that the scene's alpha holds, and sRGB
+// encoding into the caller's framebuffer, or raw values for debug views), METER (the log of the scene's luminance, for the exposure's log-average) and
 // DEPTH_COPY (the scene's depth into the caller's framebuffer). Drawn
 // with the fullscreen triangle of fullscreen.vert.
 
@@ -88,14 +88,16 @@ uniform bool u_tone_map;              // false: debug values, written clamped an
 
 void main() {
     vec2 uv = output_uv();
-    vec3 scene = texture(u_source, uv).rgb;
+    vec4 texel = texture(u_source, uv);
+    vec3 scene = texel.rgb;
     if (!u_tone_map) {
         out_colour = vec4(clamp(scene, 0.0, 1.0), 1.0);
         return;
     }
     vec3 bloom = texture(u_bloom, uv).rgb * u_bloom_normalisation;
     vec3 hdr = mix(scene, bloom, u_bloom_strength) * u_exposure;
-    out_colour = vec4(srgb_encode(aces_fitted(max(hdr, 0.0))), 1.0);
+    // alpha: the spread of the light across the pixel (tone.glsl), 0 where it is even.
+    out_colour = vec4(srgb_encode(aces_over_spread(max(hdr, 0.0), texel.a)), 1.0);
 }
 
 #endif

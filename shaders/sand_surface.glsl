@@ -1,12 +1,12 @@
-// The sand material: shade_sand(point, lighting, mode) for any surface that includes this file
-// (after lighting.glsl). One model at every distance: d'Eon's Lambertian-sphere BRDF with the
-// subsurface terms for the diffuse light, and the Cook–Torrance light of the clear grains'
-// facets for the specular, on the rippled macro normal. Close up the footprint's own albedo,
-// grain normals and facets shade it, the mirroring facets drawn as sparkles; far away the
-// tile's average and its whole distribution of facets, which is what the close range tends
-// to; between them the preset's sigmoid of distance only decides which work is done. Uniforms
-// are set by sand_editor/render/material.py (SandMaterial.bind). The facet model and sparkle
-// are in sand_glints.glsl and glint_facets.glsl, ripples and d'Eon's BRDF in sand_far.glsl.
+// The sand material: shade_sand(point, lighting, mode, spread) for any surface that includes this
+// file (after lighting.glsl). One model at every distance: d'Eon's Lambertian-sphere BRDF with the
+// subsurface terms for the diffuse light, and the Cook–Torrance light of the clear grains' facets
+// for the specular, on the rippled macro normal. Close up the footprint's own albedo, grain normals
+// and facets shade it, the mirroring facets drawn as sparkles; far away the tile's average and its
+// whole distribution of facets, which is what the close range tends to; between them the preset's
+// sigmoid of distance only decides which work is done. Uniforms are set by
+// sand_editor/render/material.py (SandMaterial.bind). The facet model and sparkle are in
+// sand_glints.glsl and glint_facets.glsl, ripples and d'Eon's BRDF in sand_far.glsl.
 
 #include "common.glsl"
 #include "glint_facets.glsl"
@@ -189,8 +189,11 @@ vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
 // are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
 // turning away from the eye) depends on the eye: fixed texture axes would make the average
 // jump where the eye's azimuth crosses them. The same average at every scale, so that the far
-// range's diffuse light is the close range's.
-vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L) {
+// range's diffuse light is the close range's. `spread`: x the variance of the sun's and the
+// moon's luminance over the five (their light's spread across the footprint), y the sun's
+// mean luminance.
+vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L,
+                            out vec2 spread) {
     vec2 m = normals.xy;
     vec2 variance = max(normals.zw - m * m, 0.0);
     vec2 towards = to_tangent(v, s).xy;
@@ -203,6 +206,7 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
     vec2 points[5] = vec2[5](m, m + spread_along, m - spread_along,
                              m + spread_across, m - spread_across);
     vec3 sum = vec3(0.0);
+    vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
     for (int i = 0; i < 5; ++i) {
         vec2 p = points[i];
         float len2 = dot(p, p);
@@ -214,18 +218,25 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
         float facing = dot(n, v);
         float seen = smoothstep(-FACING_BAND, FACING_BAND, facing);
         if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
-        vec3 direct = vec3(0.0);
+        vec3 sunlit = vec3(0.0), direct = vec3(0.0);
         // Lights that are off (below the horizon) are skipped: the same branch for every pixel.
         if (L.sun_radiance != vec3(0.0)) {
-            direct += sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
+            sunlit = seen * sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
         }
         if (L.moon_radiance != vec3(0.0)) {
-            direct += sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance);
+            direct = seen * sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance);
         }
-        sum += (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE)) * seen * direct;
+        direct += sunlit;
+        float weight = i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE);
+        sum += weight * direct;
+        float luminance = dot(direct, LUMINANCE_WEIGHTS);
+        moments += weight * vec3(luminance, luminance * luminance,
+                                 dot(sunlit, LUMINANCE_WEIGHTS));
     }
+    spread = vec2(max(moments.y - moments.x * moments.x, 0.0), moments.z);
     // The sky's light is linear in the normal, and the light through grain edges does not
-    // depend on it: both once, for the mean normal.
+    // depend on it: both once, for the mean normal (neither adds to the variance: a share of
+    // the footprint's light that does not vary across it).
     vec3 mean_normal = to_world(vec3(m, sqrt(max(1.0 - dot(m, m), 0.0))), s);
     return sum + sand_sky(kd, mean_normal, L.sky_irradiance)
          + grain_transmission(kd, L.sun_direction, v, L.sun_radiance)
@@ -234,6 +245,9 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
 
 struct Shaded {
     vec3 radiance;
+    // The variance of the luminance across the footprint over its squared mean: what the tone
+    // curve takes of it (tone.glsl's aces_over_spread).
+    float spread;
     vec3 glint;         // the specular part of radiance
     vec3 micro_normal;  // the diffuse shading normal
     float lod;          // the mip level the footprint's taps read
@@ -286,6 +300,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     // relief fades in: by the grains' size against a tap, as sharp as the grains are read.
     vec3 e = normalize(f.to_eye);
     vec2 reaching = vec2(mean_relief_visibility(f.light0, e), mean_relief_visibility(f.light1, e));
+    vec2 mean_reaching = reaching;
     float relief = relief_weight(tap_texels(taps));
     vec2 seen_tc = f.tc + mean_relief_shift(e);
     if (relief > 0.0) {
@@ -323,7 +338,16 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     } else {
         c.glint = sand_specular(densities, h[0], h[1], L);
     }
-    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L) + c.glint;
+    vec2 spread;
+    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L, spread) + c.glint;
+    // Where the relief is not drawn, the grains' shadows are not either: of the sun's mean
+    // light m on the footprint, a share v (the mean visibility) of its grains is lit by m / v
+    // and the rest by none, a variance of m²(1 − v)/v; none of it where the relief is drawn.
+    float undrawn = (1.0 - relief) * spread.y;
+    float lit_share = max(mean_reaching.x, 1e-3);
+    float shadowing = undrawn * undrawn * (1.0 - lit_share) / lit_share;
+    float mean = dot(c.radiance, LUMINANCE_WEIGHTS);
+    c.spread = mean > 1e-8 ? (spread.x + shadowing) / (mean * mean) : 0.0;
     return c;
 }
 
@@ -344,7 +368,8 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     vec4 normals = textureLod(u_normal_moments, centre, u_max_lod);
     bool copies = u_tile_variation != 0;
     if (copies) normals = copies_normal_moments(normals);
-    return filtered_diffuse_light(kd, normals, s, v, L)
+    vec2 spread;  // not written far away (shade_sand): the ripples' slopes vary there instead
+    return filtered_diffuse_light(kd, normals, s, v, L, spread)
          + sand_specular(tile_factors(h0, h1, copies), h0, h1, L);
 }
 
@@ -369,7 +394,11 @@ bool sand_covers(vec3 position, vec3 eye, int mode) {
 #endif
 }
 
-vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
+// `spread`: the variance of the light's luminance across the pixel over its squared mean, which
+// the tone curve takes (tone.glsl's aces_over_spread): the close range's, as much of it as the
+// blend keeps; 0 where the pixel's light is taken as even (far away, the debug modes).
+vec3 shade_sand(SurfacePoint s, Lighting L, int mode, out float spread) {
+    spread = 0.0;
     vec3 to_eye = L.eye - s.position;
     float distance_m = length(to_eye);
     vec3 v = distance_m > 0.0 ? to_eye / distance_m : s.normal;
@@ -389,12 +418,20 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode) {
     if (whole && blend > u_close_cutoff) return shade_far(r, L, v);
     Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK);
 
-    if (mode == MODE_CLOSE) return close.radiance;
+    if (mode == MODE_CLOSE) {
+        spread = close.spread;
+        return close.radiance;
+    }
     if (mode == MODE_GLINTS) return close.glint;
     if (mode == MODE_NORMALS) return close.micro_normal * 0.5 + 0.5;
     if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
     // Both ranges hold the same light on average (the far one is the close one's limit), so
     // the blend only decides which work is done.
     vec3 far = blend > 1e-4 ? shade_far(r, L, v) : vec3(0.0);
-    return mix(close.radiance, far, blend);
+    vec3 radiance = mix(close.radiance, far, blend);
+    // The far share is even across the pixel: only the close share's variance is left.
+    float close_share = (1.0 - blend) * dot(close.radiance, LUMINANCE_WEIGHTS);
+    float mean = dot(radiance, LUMINANCE_WEIGHTS);
+    spread = mean > 1e-8 ? close.spread * (close_share * close_share) / (mean * mean) : 0.0;
+    return radiance;
 }

@@ -81,7 +81,7 @@ void main() {
     vec4 far_point = u_inverse_view_projection * vec4(ndc, 1.0, 1.0);
     vec4 near_point = u_inverse_view_projection * vec4(ndc, -1.0, 1.0);
     vec3 dir = normalize(far_point.xyz / far_point.w - near_point.xyz / near_point.w);
-    out_radiance = vec4(sky_radiance(dir), 1.0);
+    out_radiance = vec4(sky_radiance(dir), 0.0);  // alpha: no spread (tone.glsl)
 }
 
 #endif

@@ -53,9 +53,12 @@ void main() {
     s.tangent = normalize(v_tangent - s.normal * dot(s.normal, v_tangent));
     s.bitangent = cross(s.tangent, s.normal);
     s.uv = v_uv;
-    vec3 radiance = shade_sand(s, shadowed(scene_lighting(u_eye), v_world, s.normal), u_mode);
+    float spread;
+    vec3 radiance = shade_sand(s, shadowed(scene_lighting(u_eye), v_world, s.normal), u_mode,
+                               spread);
     // Half floats overflow to inf past 65504, and bloom would smear an inf over the frame.
-    out_radiance = vec4(clamp(radiance, 0.0, MAX_HALF), 1.0);
+    // alpha: the spread of the light across the pixel, which the tone curve takes (tone.glsl).
+    out_radiance = vec4(clamp(radiance, 0.0, MAX_HALF), clamp(spread, 0.0, MAX_SPREAD));
 }
 
 #endif

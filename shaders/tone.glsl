@@ -15,3 +15,19 @@ vec3 aces_fitted(vec3 colour) {
     vec3 b = colour * (0.983729 * colour + 0.4329510) + 0.238081;
     return clamp(ACES_OUTPUT * (a / b), 0.0, 1.0);
 }
+
+// The curve's mean over a pixel whose light varies across it: `colour` its mean, `spread` the
+// variance of its luminance over the squared mean (the scene's alpha: sand_surface.glsl's
+// Shaded.spread). The eye, and a frame drawn finer and averaged, see each part of the pixel
+// through the curve, whose shoulder bends the bright parts down: the curve of the mean is
+// brighter than the mean of the curve. The light across the pixel is taken as log-normal with
+// that mean and spread, and its mean through the curve by 3-point Gauss–Hermite quadrature.
+vec3 aces_over_spread(vec3 colour, float spread) {
+    if (!(spread > 0.0)) return aces_fitted(colour);
+    float log_variance = log(1.0 + spread);
+    float reach = sqrt(3.0 * log_variance);
+    float centre = exp(-0.5 * log_variance);
+    return aces_fitted(colour * centre) * (2.0 / 3.0)
+         + (aces_fitted(colour * (centre * exp(reach)))
+            + aces_fitted(colour * (centre * exp(-reach)))) / 6.0;
+}

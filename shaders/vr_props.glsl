@@ -44,7 +44,7 @@ void main() {
     vec3 sky = L.sky_irradiance * (0.6 + 0.4 * n.y);
     vec3 light = L.sun_radiance * max(dot(n, L.sun_direction), 0.0)
                + L.moon_radiance * max(dot(n, L.moon_direction), 0.0) + sky;
-    out_radiance = vec4(v_albedo / PI * light, 1.0);
+    out_radiance = vec4(v_albedo / PI * light, 0.0);  // alpha: no spread (tone.glsl)
 }
 
 #endif

@@ -80,7 +80,8 @@ uniform bool u_editor_look = true;
 _EYE = """    // The eye: back along this eye's view ray (VIEW) as far as the camera is.
     vec3 eye = v_world + mat3(INV_VIEW_MATRIX) * VIEW * distance(v_world, CAMERA_POSITION_WORLD);
 """
-_DISPLAY = """    {out} = u_editor_look ? aces_fitted(max(exposed, 0.0)) : exposed;
+# The editor's tone curve over the spread of the pixel's light (tone.glsl), 0 for the sky.
+_DISPLAY = """    {out} = u_editor_look ? aces_over_spread(max(exposed, 0.0), {spread}) : exposed;
 #if CURRENT_RENDERER == RENDERER_COMPATIBILITY
     // Godot's Compatibility renderer writes colours as it is given them, as display values.
     {out} = srgb_encode({out});
@@ -239,9 +240,10 @@ def godot_shader(samplers: dict[str, dict]) -> str:
         raise GodotShaderError("main() returns early; the output would be skipped")
     # Each eye sees the sand from its own position, not the camera's midway between them.
     body = re.sub(r"\bu_eye\b", "eye", body)
+    display = _DISPLAY.format(out="ALBEDO", spread="out_radiance.a")
     fragment = (
         f"void fragment() {{\n{_EYE}    vec4 out_radiance;{body.rstrip()}\n"
-        f"    vec3 exposed = out_radiance.rgb * u_exposure;\n{_DISPLAY.format(out='ALBEDO')}}}"
+        f"    vec3 exposed = out_radiance.rgb * u_exposure;\n{display}}}"
     )
     text = text[:start] + _VERTEX.lstrip("\n") + "\n" + fragment + text[end:]
     first = "shader_type spatial;\nrender_mode unshaded, cull_disabled;"
@@ -255,7 +257,7 @@ def godot_sky_shader() -> str:
     start, end = _main_body(text)
     sky = (
         "void sky() {\n    vec3 exposed = sky_radiance(EYEDIR) * u_exposure;\n"
-        f"{_DISPLAY.format(out='COLOR')}}}"
+        f"{_DISPLAY.format(out='COLOR', spread='0.0')}}}"
     )
     text = text[:start] + sky + text[end:]
     return _header("shader_type sky;", "shaders/sky.glsl") + text.lstrip()

@@ -172,7 +172,7 @@ class SandRenderer:
 
         with drawing_into(ctx, hdr_target):
             ctx.viewport = (0, 0, *self.post.size)
-            hdr_target.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+            hdr_target.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)  # alpha: no spread (tone.glsl)
             if not debug:
                 self._draw_sky(camera, sky)
             times["sky_ms"] = _lap(start) - times["shadows_ms"]

@@ -68,8 +68,8 @@ def test_the_shader_is_the_renderers_program_in_godots_frame(project):
     # Every function and uniform of the renderer's fragment program, none made up (but the
     # two the Godot frame adds, and main, which is fragment()).
     functions = set(_FUNCTION.findall(shader))
-    assert functions == set(_FUNCTION.findall(core)) - {"main"} | {"aces_fitted", "vertex",
-                                                                     "fragment"}  # fmt: skip
+    display = {"aces_fitted", "aces_over_spread"}  # the editor's tone curve (tone.glsl)
+    assert functions == set(_FUNCTION.findall(core)) - {"main"} | display | {"vertex", "fragment"}
     ours = set(shader_uniforms(core))
     assert set(shader_uniforms(shader)) == ours | {"u_exposure", "u_editor_look"}
     # The integer grain texture is read as exact floats; the others keep their filters.
@@ -84,7 +84,7 @@ def test_the_sky_is_the_renderers_sky_program_in_godots_frame():
     assert sky.startswith("shader_type sky;\n")
     assert "sky_radiance(EYEDIR)" in sky and "gl_FragCoord" not in sky
     assert set(_FUNCTION.findall(sky)) == set(_FUNCTION.findall(core)) - {"main"} | {
-        "aces_fitted", "sky"}  # fmt: skip
+        "aces_fitted", "aces_over_spread", "sky"}  # fmt: skip
     assert set(shader_uniforms(sky)) == set(shader_uniforms(core)) | {"u_exposure",
                                                                       "u_editor_look"}  # fmt: skip
 

@@ -494,7 +494,7 @@ export class SandViewer {
         gl.viewport(0, 0, width, height);
         gl.disable(gl.BLEND);
         gl.depthMask(true);
-        gl.clearColor(0, 0, 0, 1);
+        gl.clearColor(0, 0, 0, 0);  // alpha: no spread (tone.glsl)
         gl.clearDepth(1);
         gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
         this.drawSky(camera, width, height);
