@@ -69,14 +69,21 @@ float relief_depth_tc(vec3 e) {
     return RELIEF_DEPTH_CELLS * u_grain_cell * smoothstep(0.05, 0.3, e.z);
 }
 
-// The table's entry for tangent-space l and e: x the mean share of light along l that reaches
-// the grains an eye along e sees, y the mean depth at which that eye's ray meets them.
-vec2 mean_relief(vec3 l, vec3 e) {
+// Where tangent-space l and e fall in a table of RELIEF_TABLE entries over the light's
+// cosine, the eye's and the azimuth between them (this one, and sand_surface.glsl's five
+// normals' correction), each axis's end entries at its ends: the texture coordinate.
+vec3 direction_table_at(vec3 l, vec3 e) {
     float across = length(l.xy) * length(e.xy);
     float azimuth = across > 1e-8 ? acos(clamp(dot(l.xy, e.xy) / across, -1.0, 1.0)) : 0.0;
     vec3 at = vec3(clamp(l.z, 0.0, 1.0), clamp(e.z, 0.0, 1.0), azimuth / PI);
     vec3 size = vec3(RELIEF_TABLE);
-    return texture(u_relief_visibility, (at * (size - 1.0) + 0.5) / size).rg;
+    return (at * (size - 1.0) + 0.5) / size;
+}
+
+// The table's entry for tangent-space l and e: x the mean share of light along l that reaches
+// the grains an eye along e sees, y the mean depth at which that eye's ray meets them.
+vec2 mean_relief(vec3 l, vec3 e) {
+    return texture(u_relief_visibility, direction_table_at(l, e)).rg;
 }
 
 float mean_relief_visibility(vec3 l, vec3 e) {

@@ -24,6 +24,9 @@ uniform sampler2D u_glint_moments;   // w, w·bx, w·by, w·bx·by
 uniform sampler2D u_spread_moments;  // w·bx², w·by², bx, by
 uniform sampler2D u_hole_moments;    // w·exp(−|b|²/2s₀²)
 uniform sampler2D u_normal_moments;  // nx, ny, nx², ny² of every texel's unit grain normal
+// What the five normals' diffuse light misses of the grains' own over the whole tile, per
+// light and eye direction (far_brdf.py's five_normals_correction, on the relief table's axes).
+uniform sampler3D u_diffuse_correction;
 uniform sampler2D u_detail;
 uniform vec3 u_average_albedo;       // linear: the far-field colour
 uniform float u_texture_size;        // texels per tile edge of the grain textures
@@ -182,6 +185,21 @@ vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
 // DIFFUSE_CENTRE, DIFFUSE_RING, MAX_SLOPE2, FACING_BAND, MIN_FACING and TRANSMISSION_SHARPEST
 // are #defined from sand_editor/render/far_brdf.py, whose numpy model of this light they are.
 
+// Mip levels, over a grain cell's, from which the five normals' correction fades in to where
+// it is whole: a footprint of a share of a grain has its normals' spread close enough to the
+// five's; one of many grains, the whole tile's.
+const vec2 DIFFUSE_CORRECTION_LODS = vec2(-1.0, 3.0);
+
+// The five normals' correction for a light along tangent-space l and an eye along e, where
+// the footprint's taps read mip level `lod` (far_brdf.py's five_normals_correction).
+float diffuse_correction(vec3 l, vec3 e, float lod) {
+    if (l.z <= 0.0) return 1.0;
+    float cells = lod - log2(max(u_grain_cell * u_texture_size, 1.0));
+    float whole = smoothstep(DIFFUSE_CORRECTION_LODS.x, DIFFUSE_CORRECTION_LODS.y, cells);
+    if (whole <= 0.0) return 1.0;
+    return mix(1.0, texture(u_diffuse_correction, direction_table_at(l, e)).r, whole);
+}
+
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
 // their squares), as the grains themselves give it when each is resolved: at the mean normal
 // and four more whose nx, ny hold that mean and the variance along two axes exactly. Unit
@@ -189,14 +207,16 @@ vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
 // are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
 // turning away from the eye) depends on the eye: fixed texture axes would make the average
 // jump where the eye's azimuth crosses them. The same average at every scale, so that the far
-// range's diffuse light is the close range's. `spread`: x the variance of the sun's and the
-// moon's luminance over the five (their light's spread across the footprint), y the sun's
-// mean luminance.
-vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Lighting L,
-                            out vec2 spread) {
+// range's diffuse light is the close range's: the five's light is corrected by what they
+// miss of the grains' own, as the footprint's level `lod` grows to hold whole grains
+// (diffuse_correction). `spread`: x the variance of the sun's and the moon's luminance over the
+// five (their light's spread across the footprint), y the sun's mean luminance.
+vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, vec3 v,
+                            Lighting L, out vec2 spread) {
     vec2 m = normals.xy;
     vec2 variance = max(normals.zw - m * m, 0.0);
-    vec2 towards = to_tangent(v, s).xy;
+    vec3 e = to_tangent(v, s);
+    vec2 towards = e.xy;
     float reach = length(towards);
     vec2 along = reach > 1e-5 ? towards / reach : vec2(1.0, 0.0);
     vec2 across = vec2(-along.y, along.x);
@@ -205,6 +225,8 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
     vec2 spread_across = across * (DIFFUSE_RING * sqrt(dot(across * across, variance)));
     vec2 points[5] = vec2[5](m, m + spread_along, m - spread_along,
                              m + spread_across, m - spread_across);
+    float sun_share = diffuse_correction(to_tangent(L.sun_direction, s), e, lod);
+    float moon_share = diffuse_correction(to_tangent(L.moon_direction, s), e, lod);
     vec3 sum = vec3(0.0);
     vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
     for (int i = 0; i < 5; ++i) {
@@ -221,10 +243,11 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, SurfacePoint s, vec3 v, Light
         vec3 sunlit = vec3(0.0), direct = vec3(0.0);
         // Lights that are off (below the horizon) are skipped: the same branch for every pixel.
         if (L.sun_radiance != vec3(0.0)) {
-            sunlit = seen * sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
+            sunlit = seen * sun_share * sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
         }
         if (L.moon_radiance != vec3(0.0)) {
-            direct = seen * sand_diffuse(kd, n, L.moon_direction, v, L.moon_radiance);
+            direct = seen * moon_share * sand_diffuse(kd, n, L.moon_direction, v,
+                                                      L.moon_radiance);
         }
         direct += sunlit;
         float weight = i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE);
@@ -339,7 +362,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
         c.glint = sand_specular(densities, h[0], h[1], L);
     }
     vec2 spread;
-    c.radiance = filtered_diffuse_light(albedo, normals, s, v, L, spread) + c.glint;
+    c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, spread) + c.glint;
     // Where the relief is not drawn, the grains' shadows are not either: of the sun's mean
     // light m on the footprint, a share v (the mean visibility) of its grains is lit by m / v
     // and the rest by none, a variance of m²(1 − v)/v; none of it where the relief is drawn.
@@ -369,7 +392,7 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     bool copies = u_tile_variation != 0;
     if (copies) normals = copies_normal_moments(normals);
     vec2 spread;  // not written far away (shade_sand): the ripples' slopes vary there instead
-    return filtered_diffuse_light(kd, normals, s, v, L, spread)
+    return filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, spread)
          + sand_specular(tile_factors(h0, h1, copies), h0, h1, L);
 }
 

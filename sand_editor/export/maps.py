@@ -32,7 +32,7 @@ from sand_editor.export.glints import facets_per_tile
 from sand_editor.generator import SandTextures
 from sand_editor.generator.noise import PROFILE_OFFSET, PROFILE_SCALE, NoiseConstants
 from sand_editor.preset import Preset
-from sand_editor.render.far_brdf import lambert_equivalent_albedo
+from sand_editor.render.far_brdf import grain_tilts, lambert_equivalent_albedo
 
 PROFILE_TOP = PROFILE_OFFSET + PROFILE_SCALE  # the tallest a grain's height gets
 OCCLUSION_STRENGTH = 1.0
@@ -126,10 +126,12 @@ def occlusion_map(height: np.ndarray, grain_px: float) -> np.ndarray:
 
 
 def albedo_scale(preset: Preset, textures: SandTextures, moments=None) -> np.ndarray:
-    """Per channel, the Lambertian-equivalent albedo of the tile over its mean albedo."""
+    """Per channel, the Lambertian-equivalent albedo of the tile over its mean albedo (the far
+    range's light, the grains' tilts correcting its five normals)."""
     kd = np.clip(textures.average_albedo.astype(np.float64), 1e-4, 1.0)
     moments = normal_moments(textures.normal) if moments is None else moments
-    return lambert_equivalent_albedo(preset, kd, moments) / kd
+    tilts = grain_tilts(textures.normal[..., :2])
+    return lambert_equivalent_albedo(preset, kd, moments, tilts) / kd
 
 
 def normal_moments(normal: np.ndarray) -> tuple[float, float, float, float]:

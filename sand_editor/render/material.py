@@ -41,7 +41,7 @@ from sand_editor.render.facet_lobe import (
     lobe_row,
 )
 from sand_editor.render.far_brdf import SHADER_DEFINES as FAR_DEFINES
-from sand_editor.render.far_brdf import sphere_albedo_terms
+from sand_editor.render.far_brdf import five_normals_correction, grain_tilts, sphere_albedo_terms
 from sand_editor.render.modes import mode_defines
 from sand_editor.render.shadows import SHADER_DEFINES as SHADOW_DEFINES
 from sand_editor.render.tile_copies import SHADER_DEFINES as TILE_COPY_DEFINES
@@ -187,6 +187,12 @@ class SandMaterial:
         self.relief_visibility_texture.repeat_y = False
         self.relief_visibility_texture.repeat_z = False
         self.relief_visibility = np.ones((azimuths, eyes, lights), dtype=np.float32)
+        self.diffuse_correction_texture = keep(
+            ctx.texture3d((lights, eyes, azimuths), 1, dtype="f4")
+        )
+        self.diffuse_correction_texture.repeat_x = False
+        self.diffuse_correction_texture.repeat_y = False
+        self.diffuse_correction_texture.repeat_z = False
         self.detail = self._map(detail_slopes(DETAIL_MAP_SIZE, seed=3))
 
     @staticmethod
@@ -317,6 +323,7 @@ class SandMaterial:
         self.lobe_correction = self._measure_lobe_correction()
         if new_grains:
             self.relief_visibility = self._measure_relief_visibility()
+            self._measure_diffuse_correction()
 
     def _measure_relief_visibility(self) -> np.ndarray:
         """The grains' mean shadowing of a light as an eye sees them, (azimuth, eye cosine,
@@ -336,6 +343,34 @@ class SandMaterial:
         table = flat.reshape(eyes, azimuths, lights, 2).transpose(1, 0, 2, 3).copy()
         self.relief_visibility_texture.write(table.tobytes())
         return table[..., 0].copy()
+
+    def _measure_diffuse_correction(self) -> None:
+        """What the five normals' diffuse light misses of the grains' own over the whole tile
+        (far_brdf.five_normals_correction), (azimuth, eye cosine, light cosine) at the relief
+        table's directions (sand_relief.glsl's direction_table_at), into the texture the
+        surface reads."""
+        finest = np.frombuffer(read_without_gil(self.normal_moments), dtype=np.float32)
+        tilts = grain_tilts(finest.reshape(-1, 4)[:, :2])
+        top = int(self.max_lod)
+        tile = np.frombuffer(read_without_gil(self.normal_moments, level=top), dtype=np.float32)
+        lights, eyes, azimuths = RELIEF_TABLE
+        cos_light = np.maximum(np.linspace(0.0, 1.0, lights), 0.02)
+        cos_eye = np.maximum(np.linspace(0.0, 1.0, eyes), 0.02)
+        azimuth = np.linspace(0.0, np.pi, azimuths)
+        sin_eye = np.sqrt(1.0 - cos_eye * cos_eye)
+        eye = np.stack(
+            [
+                np.outer(np.cos(azimuth), sin_eye),
+                np.outer(np.sin(azimuth), sin_eye),
+                np.broadcast_to(cos_eye, (azimuths, eyes)),
+            ],
+            axis=-1,
+        )
+        table = np.empty((azimuths, eyes, lights), dtype=np.float32)
+        for i, c in enumerate(cos_light):
+            light = np.array([np.sqrt(1.0 - c * c), 0.0, c])
+            table[..., i] = five_normals_correction(tilts, tile[:4], light, eye)
+        self.diffuse_correction_texture.write(table.tobytes())
 
     def _measure_lobe_correction(self) -> np.ndarray:
         """The rotated facet lobe's light over the slope moments' (facet_lobe.py), measured on
@@ -372,6 +407,7 @@ class SandMaterial:
             "u_detail": self.detail,
             "u_layer_grain": self._grains.layer_grain,  # the tile's copies' borders
             "u_relief_visibility": self.relief_visibility_texture,
+            "u_diffuse_correction": self.diffuse_correction_texture,
         }
 
     def uniform_values(self) -> dict:

@@ -140,11 +140,11 @@ def test_a_uniform_no_shader_declares_raises_and_an_unused_one_is_skipped(gl_cle
 
     far = program(gl_clean, "terrain.glsl", surface_defines(SAND_FAR_ONLY=1))
     try:
-        # Declared, but only the close range's sparkle placement reads it.
-        assert "u_texture_size" not in far
-        set_uniform(far, "u_texture_size", 1024.0)
-        with pytest.raises(UniformError, match="u_texture_sizee"):
-            set_uniform(far, "u_texture_sizee", 1024.0)
+        # Declared, but only the close range's taps along a grazing footprint read it.
+        assert "u_anisotropic" not in far
+        set_uniform(far, "u_anisotropic", 1)
+        with pytest.raises(UniformError, match="u_anisotropicc"):
+            set_uniform(far, "u_anisotropicc", 1)
         set_uniform(far, "u_sigmoid_a", 3.0)
         assert far["u_sigmoid_a"].value == 3.0
     finally:
