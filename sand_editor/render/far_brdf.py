@@ -152,10 +152,16 @@ def _facing(n, eye) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _seen_light(n, light, eye) -> np.ndarray:
-    """The diffuse light's shape on normals ``n``: the share the eye sees of each times the
-    light's cosine on its shading normal."""
-    seen, bent = _facing(n, eye)
-    return seen * np.maximum(bent @ light, 0.0)
+    """The diffuse light's shape on unit normals ``n`` (k, 3) for eyes ``eye`` (..., 3), as
+    (..., k): the share the eye sees of each times the light's cosine on its shading normal,
+    that of :func:`_facing` without forming it (n + b·e has length √(1 + 2b·n·e + b²))."""
+    facing = eye @ n.T
+    seen = _smoothstep(-FACING_BAND, FACING_BAND, facing)
+    bend = np.maximum(MIN_FACING - facing, 0.0)
+    towards_light = (n @ light + bend * (eye @ light)[..., None]) / np.sqrt(
+        1.0 + 2.0 * bend * facing + bend * bend
+    )
+    return seen * np.maximum(towards_light, 0.0)
 
 
 def five_normals_correction(tilts, moments, light, eye) -> np.ndarray:
@@ -173,9 +179,10 @@ def five_normals_correction(tilts, moments, light, eye) -> np.ndarray:
     s = np.sqrt(1.0 - c * c)
     grains = np.stack([s * np.cos(a), s * np.sin(a), c], axis=-1).reshape(-1, 3)
     shares = np.repeat(np.asarray(tilts, dtype=np.float64) / TILT_AZIMUTHS, TILT_AZIMUTHS)
-    exact = np.sum(_seen_light(grains, light, eye) * shares, axis=-1)
+    exact = _seen_light(grains, light, eye) @ shares
     n, weights = moment_normals(moments, eye)
-    five = np.sum(_seen_light(n, light, eye) * weights, axis=-1)
+    seen, bent = _facing(n, eye)
+    five = np.sum(seen * np.maximum(bent @ light, 0.0) * weights, axis=-1)
     ratio = np.where(five > 1e-6, exact / np.maximum(five, 1e-6), 1.0)
     return np.clip(ratio, *CORRECTION_RANGE)
 

