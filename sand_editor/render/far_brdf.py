@@ -132,13 +132,18 @@ def moment_normals(moments, eye) -> tuple[np.ndarray, np.ndarray]:
 
 
 def grain_tilts(normal_xy: np.ndarray) -> np.ndarray:
-    """The share of the grains' normals in each of TILT_BANDS equal bands of their cosine to
-    the surface's normal, from every texel's nx, ny (..., 2)."""
+    """The grains' normals in TILT_BANDS equal bands of their cosine to the surface's normal,
+    from every texel's nx, ny (..., 2): per band (TILT_BANDS, 2) the share of the normals in it
+    and their mean cosine (a band's middle where it holds none), so that a flat tile's normals
+    are exactly upright."""
     xy = np.asarray(normal_xy, dtype=np.float32).reshape(-1, 2)
     cosine = np.sqrt(np.clip(1.0 - xy[:, 0] * xy[:, 0] - xy[:, 1] * xy[:, 1], 0.0, 1.0))
     band = np.minimum((cosine * TILT_BANDS).astype(np.int64), TILT_BANDS - 1)
     counts = np.bincount(band, minlength=TILT_BANDS).astype(np.float64)
-    return counts / max(float(counts.sum()), 1.0)
+    sums = np.bincount(band, weights=cosine, minlength=TILT_BANDS)
+    middle = (np.arange(TILT_BANDS) + 0.5) / TILT_BANDS
+    mean = np.where(counts > 0, sums / np.maximum(counts, 1.0), middle)
+    return np.stack([counts / max(float(counts.sum()), 1.0), mean], axis=-1)
 
 
 def _facing(n, eye) -> tuple[np.ndarray, np.ndarray]:
@@ -166,19 +171,20 @@ def _seen_light(n, light, eye) -> np.ndarray:
 
 def five_normals_correction(tilts, moments, light, eye) -> np.ndarray:
     """What the five normals' diffuse light (:func:`moment_normals` of the tile's ``moments``)
-    misses of the grains' own, whose tilts are ``tilts`` (:func:`grain_tilts`): the ratio of
+    misses of the grains' own, whose tilts are ``tilts`` (:func:`grain_tilts`, each band's
+    normals at its mean cosine, TILT_AZIMUTHS azimuths around): the ratio of
     the grains' light to the five's, for a ``light`` (3,) and eyes ``eye`` (..., 3), unit, +z
     up; 1 where the light is below the horizon."""
     light = np.asarray(light, dtype=np.float64)
     eye = np.asarray(eye, dtype=np.float64)
     if light[2] <= 0.0:
         return np.ones(eye.shape[:-1])
-    cosine = (np.arange(TILT_BANDS) + 0.5) / TILT_BANDS
+    tilts = np.asarray(tilts, dtype=np.float64)
     azimuth = (np.arange(TILT_AZIMUTHS) + 0.5) / TILT_AZIMUTHS * 2.0 * np.pi
-    c, a = np.meshgrid(cosine, azimuth, indexing="ij")
+    c, a = np.meshgrid(np.clip(tilts[:, 1], 0.0, 1.0), azimuth, indexing="ij")
     s = np.sqrt(1.0 - c * c)
     grains = np.stack([s * np.cos(a), s * np.sin(a), c], axis=-1).reshape(-1, 3)
-    shares = np.repeat(np.asarray(tilts, dtype=np.float64) / TILT_AZIMUTHS, TILT_AZIMUTHS)
+    shares = np.repeat(tilts[:, 0] / TILT_AZIMUTHS, TILT_AZIMUTHS)
     exact = _seen_light(grains, light, eye) @ shares
     n, weights = moment_normals(moments, eye)
     seen, bent = _facing(n, eye)

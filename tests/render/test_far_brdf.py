@@ -13,7 +13,13 @@ from sand_editor.bench.probe import MaterialProbe
 from sand_editor.export.maps import normal_moments
 from sand_editor.generator import generate
 from sand_editor.preset import Preset
-from sand_editor.render.far_brdf import far_radiance_per_irradiance, grain_tilts, sphere_brdf
+from sand_editor.render.far_brdf import (
+    far_radiance_per_irradiance,
+    five_normals_correction,
+    grain_tilts,
+    hemisphere,
+    sphere_brdf,
+)
 from sand_editor.render.material import SandMaterial
 from sand_editor.resources import bundled_preset
 
@@ -73,3 +79,15 @@ def test_deons_brdf_is_reciprocal_and_bounded():
     assert np.all(np.isfinite(forward)) and np.all(forward >= 0.0)
     assert np.allclose(forward, backward)
     assert np.all(sphere_brdf(kd, -ui, uo, cos_io) == 0.0), "nothing from below the horizon"
+
+
+def test_a_flat_tile_needs_no_correction_of_its_five_normals():
+    """Upright normals are the five's exactly, whatever the light and the eye: each band of
+    tilt stands at its normals' mean cosine, not its middle (the top band's middle, 10° off
+    upright, drew bright rings on a sand without grains where ripples tilt the light)."""
+    tilts = grain_tilts(np.zeros((64, 64, 2)))
+    eyes = hemisphere(6)[0]
+    for cos_light in (0.05, 0.3, 0.7, 1.0):
+        light = np.array([math.sqrt(1.0 - cos_light**2), 0.0, cos_light])
+        ratio = five_normals_correction(tilts, (0.0, 0.0, 0.0, 0.0), light, eyes)
+        np.testing.assert_allclose(ratio, 1.0, atol=1e-9)
