@@ -3,9 +3,9 @@
 // Post-processing of the HDR scene, one program per define: BLOOM_DOWNSAMPLE (13 taps),
 // BLOOM_UPSAMPLE (3×3 tent, added onto the next larger level), and RESOLVE (bloom mix, exposure,
 // ACES tone mapping over the spread of each pixel's light that the scene's alpha holds, and sRGB
-// encoding into the caller's framebuffer, or raw values for debug views), METER (the log of the scene's luminance, for the exposure's log-average) and
-// DEPTH_COPY (the scene's depth into the caller's framebuffer). Drawn
-// with the fullscreen triangle of fullscreen.vert.
+// encoding into the caller's framebuffer, or raw values for debug views), METER (the log of the
+// scene's luminance, for the exposure's log-average) and DEPTH_COPY (the scene's depth into the
+// caller's framebuffer). Drawn with the fullscreen triangle of fullscreen.vert.
 
 uniform sampler2D u_source;
 uniform vec2 u_source_texel;   // 1 / size of u_source

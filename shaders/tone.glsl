@@ -18,10 +18,11 @@ vec3 aces_fitted(vec3 colour) {
 
 // The curve's mean over a pixel whose light varies across it: `colour` its mean, `spread` the
 // variance of its luminance over the squared mean (the scene's alpha: sand_surface.glsl's
-// Shaded.spread). The eye, and a frame drawn finer and averaged, see each part of the pixel
-// through the curve, whose shoulder bends the bright parts down: the curve of the mean is
-// brighter than the mean of the curve. The light across the pixel is taken as log-normal with
-// that mean and spread, and its mean through the curve by 3-point Gauss–Hermite quadrature.
+// Shaded.spread). A frame drawn finer and averaged puts each part of the pixel through the
+// curve, whose shoulder bends the bright parts down and whose toe the dark ones: the curve of
+// the mean is brighter than the mean of the curve in the shoulder, darker in the toe. The light
+// across the pixel is taken as log-normal with that mean and spread, and its mean through the
+// curve by 3-point Gauss–Hermite quadrature.
 vec3 aces_over_spread(vec3 colour, float spread) {
     if (!(spread > 0.0)) return aces_fitted(colour);
     float log_variance = log(1.0 + spread);
