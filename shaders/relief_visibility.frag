@@ -33,8 +33,7 @@ void main() {
     vec3 l = vec3(sqrt(1.0 - cos_light * cos_light), 0.0, cos_light);
     float sin_eye = sqrt(1.0 - cos_eye * cos_eye);
     vec3 e = vec3(sin_eye * cos(azimuth), sin_eye * sin(azimuth), cos_eye);
-    float cell_texels = u_grain_cell * u_texture_size;
-    float lod = max(log2(cell_texels / RELIEF_FADE_PX.y), 0.0);
+    float lod = max(log2(grain_cell_texels() / RELIEF_FADE_PX.y), 0.0);
     vec2 sum = vec2(0.0);
     for (int i = 0; i < RELIEF_SAMPLES; ++i) {
         uint h = lowbias32(uint(i) * 3u + 0x51ed27u);

@@ -42,10 +42,15 @@ float relief_height(vec2 tc, float lod) {
     return textureLod(u_albedo, tc, max(lod - RELIEF_SHARPEN_LOD, 0.0)).a;
 }
 
+// A grain cell's edge in texels of the grain textures.
+float grain_cell_texels() {
+    return u_grain_cell * u_texture_size;
+}
+
 // The weight of the relief where the footprint's taps are `texels_per_tap` texels long.
 float relief_weight(float texels_per_tap) {
     if (u_relief == 0) return 0.0;
-    float cell_px = u_grain_cell * u_texture_size / max(texels_per_tap, 1e-6);
+    float cell_px = grain_cell_texels() / max(texels_per_tap, 1e-6);
     return smoothstep(RELIEF_FADE_PX.x, RELIEF_FADE_PX.y, cell_px);
 }
 

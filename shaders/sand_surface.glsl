@@ -190,11 +190,16 @@ vec3 grain_transmission(vec3 albedo, vec3 l, vec3 v, vec3 irradiance) {
 // five's; one of many grains, the whole tile's.
 const vec2 DIFFUSE_CORRECTION_LODS = vec2(-1.0, 3.0);
 
+// How many grain cells a texel of mip level `lod` spans, as a power of 2.
+float grain_cells_lod(float lod) {
+    return lod - log2(max(grain_cell_texels(), 1.0));
+}
+
 // The five normals' correction for a light along tangent-space l and an eye along e, where
 // the footprint's taps read mip level `lod` (far_brdf.py's five_normals_correction).
 float diffuse_correction(vec3 l, vec3 e, float lod) {
     if (l.z <= 0.0) return 1.0;
-    float cells = lod - log2(max(u_grain_cell * u_texture_size, 1.0));
+    float cells = grain_cells_lod(lod);
     float whole = smoothstep(DIFFUSE_CORRECTION_LODS.x, DIFFUSE_CORRECTION_LODS.y, cells);
     if (whole <= 0.0) return 1.0;
     return mix(1.0, texture(u_diffuse_correction, direction_table_at(l, e)).r, whole);
@@ -307,8 +312,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     if (u_tile_variation != 0) {
         // The tile's copy at this point (tile_variation.glsl), shaded in its own axes.
         // How many grain cells a pixel spans, as a power of 2.
-        float cells_lod = footprint_lod - log2(max(u_grain_cell * u_texture_size, 1.0));
-        TileCopy copy = tile_copy(f.tc, cells_lod);
+        TileCopy copy = tile_copy(f.tc, grain_cells_lod(footprint_lod));
         f.tc = copy.tc;
         f.dx = copy.axes * f.dx;
         f.dy = copy.axes * f.dy;
