@@ -140,11 +140,13 @@ vec3 rippled_normal(SurfacePoint s) {
     float up = max(s.normal.y, 0.2);
     vec2 height_grad = -vec2(s.normal.x, s.normal.z) / up;
     float steep = smoothstep(0.2, 0.45, length(s.normal.xz));
-    vec2 dx = transpose(frame) * dFdx(s.uv), dy = transpose(frame) * dFdy(s.uv);
+    vec2 dx = transpose(frame) * footprint_dx(s.uv), dy = transpose(frame) * footprint_dy(s.uv);
     vec2 slope = ripples_at(transpose(frame) * s.uv, dx, dy, steep, RIPPLE_BEND * s.position.y,
                             RIPPLE_BEND * (transpose(frame) * height_grad));
     vec2 grad = frame * slope * (1.0 - u_no_ripples);
-    grad += texture(u_detail, s.uv * 4.0).xy * (u_detail_strength / max(u_ripple_strength, 1e-3));
+    vec2 at = s.uv * 4.0;
+    vec2 detail = textureGrad(u_detail, at, footprint_dx(at), footprint_dy(at)).xy;
+    grad += detail * (u_detail_strength / max(u_ripple_strength, 1e-3));
     vec3 n_t = normalize(vec3(-RIPPLE_SLOPE_GAIN * u_ripple_strength * grad, 1.0));
     return to_world(n_t, s);
 }

@@ -51,6 +51,15 @@ uniform float u_sigmoid_b;
 // sides of a branch.
 uniform float u_close_cutoff;
 uniform float u_close_limit;
+// The share of the pixel's width whose footprint the sand is filtered over: 1, or 1/k where a
+// still is drawn as k×k frames, each moved by a k-th of a pixel, and averaged
+// (SandRenderer.render_still): each then filters as the frame k times larger does.
+uniform float u_footprint_scale;
+
+// How the texture coordinates `p` change from this pixel to the next, across and up, over the
+// footprint the sand is filtered over.
+vec2 footprint_dx(vec2 p) { return dFdx(p) * u_footprint_scale; }
+vec2 footprint_dy(vec2 p) { return dFdy(p) * u_footprint_scale; }
 
 float blend_weight(float distance_m) {
     // Clamped so exp() never overflows at 1 km with a steep sigmoid.
@@ -302,8 +311,8 @@ void lights_in_tangent(SurfacePoint s, Lighting L, inout Footprint f) {
 Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     Footprint f;
     f.tc = s.uv * u_uv_scale;
-    f.dx = dFdx(f.tc);
-    f.dy = dFdy(f.tc);
+    f.dx = footprint_dx(f.tc);
+    f.dy = footprint_dy(f.tc);
     Shaded c;
     // The footprint's level as one square (the copies' borders and the reference's boost
     // scale with it).

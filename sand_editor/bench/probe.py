@@ -145,7 +145,8 @@ class MaterialProbe:
                    "u_relief": int(self.relief),
                    "u_sharp_ripples": 1,  # the renderer's filtering of the ripples
                    "u_anisotropic": 1,  # and of the grain textures
-                   "u_tile_variation": int(self.tile_variation)}  # fmt: skip
+                   "u_tile_variation": int(self.tile_variation),
+                   "u_footprint_scale": 1.0}  # fmt: skip
             for name, value in own.items():
                 set_uniform(p, name, value)  # the far-only variant has no glints
         with drawing_into(self.ctx, self._fbo):

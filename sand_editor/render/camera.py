@@ -56,6 +56,16 @@ class Camera:
             np.float32
         )
 
+    def shifted(self, pixels_x: float, pixels_y: float, size: tuple[int, int]) -> Camera:
+        """The camera whose image of a ``size`` frame is this one's moved by the given pixels
+        (right, up): each pixel then sees the point that lay that far left and down of its
+        centre. A shift in clip space after the projection; the frustum barely changes."""
+        shift = np.eye(4)
+        shift[0, 3] = 2.0 * pixels_x / size[0]
+        shift[1, 3] = 2.0 * pixels_y / size[1]
+        projection = shift @ self.projection.astype(np.float64)
+        return Camera(self.view, projection.astype(np.float32), self.eye)
+
     @classmethod
     def look_at(
         cls,

@@ -4,12 +4,14 @@ command line all draw through this class."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
 import moderngl
 import numpy as np
 
+from sand_editor.colour import luminance
 from sand_editor.gl import (
     GLObjects,
     drawing_into,
@@ -33,6 +35,8 @@ from sand_editor.render.terrain import DuneTerrain
 GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the horizon
 SUN_ANGULAR_RADIUS = math.radians(0.6)  # twice the real sun: readable on small previews
 MOON_ANGULAR_RADIUS = math.radians(0.6)
+# The most samples a still's pixel may take on each axis: 8×8, the depth bench's truth.
+MAX_STILL_SAMPLES = 8
 # The sky program's uniforms that never change.
 SKY_CONSTANTS = {
     "u_ground_albedo": GROUND_ALBEDO,
@@ -60,6 +64,16 @@ def sky_uniforms(sky: SkyState, names=None) -> dict:
         "u_star_visibility": float(sky.star_visibility),
     }
     return values if names is None else {name: values[name] for name in names}
+
+
+def check_samples(samples) -> None:
+    """A still's samples a pixel on each axis: a whole number from 1 to MAX_STILL_SAMPLES."""
+    if isinstance(samples, bool) or not isinstance(samples, int):
+        raise ValueError(f"samples must be a whole number, got {samples!r}")
+    if not 1 <= samples <= MAX_STILL_SAMPLES:
+        raise ValueError(
+            f"samples {samples} is out of range; allowed 1 to {MAX_STILL_SAMPLES} on each axis"
+        )
 
 
 class SandRenderer:
@@ -153,18 +167,26 @@ class SandRenderer:
     def render(self, target: moderngl.Framebuffer, request: FrameRequest) -> dict:
         """Draw the frame ``request`` asks for into its viewport of ``target``. Returns CPU
         milliseconds per stage and the exposure used."""
-        camera, sky, mode, debug = request.camera, request.sky, request.mode, request.debug
         viewport = request.viewport or (0, 0, *target.size)
+        start = time.perf_counter()
+        times = self._draw_scene(request, viewport[2:])
+        return self._resolve(target, viewport, request, times, start)
+
+    def _draw_scene(self, request: FrameRequest, size: tuple[int, int]) -> dict:
+        """Draw the scene, in light, into the post chain's scene target of ``size``."""
+        camera, sky, mode, debug = request.camera, request.sky, request.mode, request.debug
         ctx = self.ctx
         times = {}
         start = time.perf_counter()
-        self.post.resize(viewport[2], viewport[3])
+        self.post.resize(*size)
         scene = request.scene
         if scene is None:
             scene = self.prepare_frame(camera, request.show_sphere)
         hdr_target = self.post.scene_framebuffer
+        # A still's frames cast the shadows of the larger frame they stand for.
+        shadow_size = tuple(round(side / request.footprint_scale) for side in size)
         self._shadow_frame = self._shadow_maps(
-            scene, camera, sky, debug, viewport[2:], request.moving
+            scene, camera, sky, debug, shadow_size, request.moving
         )
         if self.wait_without_gil:
             finish_without_gil()  # the shadow maps, which the surface reads
@@ -177,17 +199,22 @@ class SandRenderer:
                 self._draw_sky(camera, sky)
             times["sky_ms"] = _lap(start) - times["shadows_ms"]
             with render_state(ctx, moderngl.DEPTH_TEST):
-                self._prepare_surface(camera, sky, mode)
+                self._prepare_surface(camera, sky, mode, request.footprint_scale)
                 for mesh in (scene.terrain, *scene.objects):
                     self._draw(mesh, camera, mode in BLENDED_MODES)
                 if request.extra is not None:
                     request.extra(camera, sky, SceneShadows(self._shadows, self._shadow_frame))
             times["surface_ms"] = _lap(start) - times["shadows_ms"] - times["sky_ms"]
-        light_only = debug or mode == "glints"  # glints alone would meter as a black scene
+        return times
+
+    def _resolve(self, target, viewport, request: FrameRequest, times: dict, start: float) -> dict:
+        """Bloom, expose and tone-map the scene target into ``viewport`` of ``target``."""
+        debug = request.debug
+        light_only = debug or request.mode == "glints"  # glints alone would meter as black
         exposure = self.post.finish(
             target,
             viewport,
-            self.exposure.for_frame(sky, request.exposure, light_only),
+            self.exposure.for_frame(request.sky, request.exposure, light_only),
             bloom_strength=0.0 if debug else self.bloom_strength,
             tone_map=not debug,
         )
@@ -200,14 +227,70 @@ class SandRenderer:
 
     def render_to_array(self, width: int, height: int, request: FrameRequest) -> np.ndarray:
         """The frame as an (height, width, 3) uint8 array, rows top-down."""
+        return self._render_read(width, height, request)[0]
+
+    def render_still(
+        self, width: int, height: int, request: FrameRequest, samples: int = 1
+    ) -> np.ndarray:
+        """The frame drawn with ``samples``×``samples`` samples a pixel, as an (height, width, 3)
+        uint8 array, rows top-down: as many frames of the scene's light, each moved by a
+        fraction of a pixel (a ``samples``-th grid over it) and filtering the sand over that
+        share of a pixel (``FrameRequest.footprint_scale``), so that each draws what a frame
+        ``samples`` times as wide and high would at those points: the grains' outlines, their
+        relief and the shadows' edges resolved within the pixel. Their light is averaged, as a
+        camera's pixel gathers the light that falls on it, then bloomed, exposed (metered on
+        the average unless the request fixes it) and tone-mapped once: a sparkle keeps the
+        light it brings to its pixel. The spread of the light the tone curve takes
+        (tone.glsl) is what the samples hold within them."""
+        check_samples(samples)
+        if samples == 1:
+            return self.render_to_array(width, height, request)
+        start = time.perf_counter()
+        offsets = (np.arange(samples) + 0.5) / samples - 0.5
+        light = np.zeros((height, width, 3))
+        spread = np.zeros((height, width))  # each sample's variance of luminance, summed
+        times = {}
+        for dy in offsets:
+            for dx in offsets:
+                sample = dataclasses.replace(
+                    request,
+                    camera=request.camera.shifted(-dx, -dy, (width, height)),
+                    footprint_scale=1.0 / samples,
+                )
+                for name, ms in self._draw_scene(sample, (width, height)).items():
+                    times[name] = times.get(name, 0.0) + ms
+                scene = self.post.scene_texture.read()
+                hdr = np.frombuffer(scene, np.float16).reshape(height, width, 4).astype(np.float64)
+                light += hdr[..., :3]
+                spread += hdr[..., 3] * luminance(hdr[..., :3]) ** 2
+        light /= samples**2
+        mean = luminance(light)
+        spread = np.divide(spread / samples**2, mean**2, out=np.zeros_like(mean), where=mean > 0)
+        spread = np.minimum(spread, np.finfo(np.float16).max)  # finite in the half floats
+        average = np.dstack([light, spread]).astype(np.float16)
+        self.post.scene_texture.write(average.tobytes())
+        target = self._readback_target(width, height)
+        self._resolve(target, (0, 0, width, height), request, times, start)
+        return self._read(target)
+
+    def _render_read(self, width: int, height: int, request: FrameRequest):
+        """The frame as render_to_array gives it, and render's timings."""
+        target = self._readback_target(width, height)
+        times = self.render(target, request)
+        return self._read(target), times
+
+    def _readback_target(self, width: int, height: int) -> moderngl.Framebuffer:
         if self._readback is None or self._readback.size != (width, height):
             self._release_readback()
             texture = self.ctx.texture((width, height), 4)
             self._readback = self.ctx.framebuffer([texture])
-        self.render(self._readback, request)
-        data = self._readback.read(components=3, alignment=1)
-        image = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)
-        return image[::-1].copy()
+        return self._readback
+
+    @staticmethod
+    def _read(target: moderngl.Framebuffer) -> np.ndarray:
+        width, height = target.size
+        data = target.read(components=3, alignment=1)
+        return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)[::-1].copy()
 
     def _draw_sky(self, camera: Camera, sky: SkyState) -> None:
         rotation_only = camera.view.astype(np.float64).copy()
@@ -254,15 +337,17 @@ class SandRenderer:
         """How many cascade maps were drawn, over all frames."""
         return self._shadows.cascades_drawn
 
-    def _prepare_surface(self, camera: Camera, sky: SkyState, mode: str) -> None:
+    def _prepare_surface(self, camera: Camera, sky: SkyState, mode: str, footprint: float) -> None:
         for prog in self._surfaces:
-            self._prepare_program(prog, camera, sky, mode)
+            self._prepare_program(prog, camera, sky, mode, footprint)
 
-    def _prepare_program(self, prog, camera: Camera, sky: SkyState, mode: str) -> None:
+    def _prepare_program(
+        self, prog, camera: Camera, sky: SkyState, mode: str, footprint: float
+    ) -> None:
         if self.material is not None:
             self.material.bind(prog, 0)
         values = {
-            **self.surface_switches(mode),
+            **self.surface_switches(mode, footprint),
             "u_eye": _vec(camera.position),
             **sky_uniforms(sky, SURFACE_SKY),
         }
@@ -270,10 +355,12 @@ class SandRenderer:
             set_uniform(prog, name, value)
         self._shadows.bind(prog, self._shadow_frame)
 
-    def surface_switches(self, mode: str) -> dict:
-        """The surface programs' uniforms of the mode and the renderer's switches."""
+    def surface_switches(self, mode: str, footprint_scale: float = 1.0) -> dict:
+        """The surface programs' uniforms of the mode, the renderer's switches and the share of
+        a pixel the sand is filtered over (``FrameRequest.footprint_scale``)."""
         return {
             "u_mode": mode_index(mode),
+            "u_footprint_scale": float(footprint_scale),
             "u_relief": int(self.relief),
             "u_sharp_ripples": int(self.sharp_ripples),
             "u_anisotropic": int(self.anisotropic),

@@ -27,7 +27,9 @@ class FrameRequest:
     too. ``moving``: a frame of a view in motion (the editor's reduced frames while it orbits,
     edits or plays the clock), whose shadow maps, where the view alone moved, are drawn
     again one a frame, the oldest first (``SunShadows.update``); a still
-    frame draws every map it needs. A mode not in ``render.modes`` raises ``ValueError``.
+    frame draws every map it needs. ``footprint_scale``: the share of a pixel's width the sand
+    is filtered over, 1 but in the frames of a still drawn with more samples
+    (``SandRenderer.render_still``). A mode not in ``render.modes`` raises ``ValueError``.
     """
 
     camera: Camera
@@ -40,9 +42,12 @@ class FrameRequest:
     extra: Callable | None = None
     depth_out: bool = False
     moving: bool = False
+    footprint_scale: float = 1.0
 
     def __post_init__(self) -> None:
         check_mode(self.mode)
+        if not 0.0 < self.footprint_scale <= 1.0:
+            raise ValueError(f"footprint_scale must lie in (0, 1], got {self.footprint_scale}")
         if self.viewport is not None:
             object.__setattr__(self, "viewport", tuple(int(v) for v in self.viewport))
 

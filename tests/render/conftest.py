@@ -31,3 +31,10 @@ def renderer_with_material(ctx, texture_size: int = 64) -> Iterator:
 def sand_renderer(gl_ctx):
     with renderer_with_material(gl_ctx) as renderer:
         yield renderer
+
+
+@pytest.fixture(scope="module")
+def fine_sand_renderer(gl_ctx):
+    """The default sand at 512² texels: its grains a few pixels wide in 160×90 views up close."""
+    with renderer_with_material(gl_ctx, texture_size=512) as renderer:
+        yield renderer

@@ -7,12 +7,10 @@ import numpy as np
 import pytest
 
 from sand_editor.colour import srgb_to_linear
-from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.exposure import light_exposure
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
-from sand_editor.resources import bundled_preset
 from tests.render.test_renderer import scene_hdr
 
 pytestmark = pytest.mark.gl
@@ -21,18 +19,9 @@ W, H = 160, 90
 K = 8
 
 
-@pytest.fixture(scope="module")
-def renderer(gl_ctx):
-    from sand_editor.render.material import SandMaterial
-    from sand_editor.render.renderer import SandRenderer
-
-    material = SandMaterial(gl_ctx, texture_size=512)
-    material.update(Preset.load(bundled_preset("paper-default")))
-    r = SandRenderer(gl_ctx)
-    r.set_material(material)
-    yield r
-    r.release()
-    material.release()
+@pytest.fixture
+def renderer(fine_sand_renderer):
+    return fine_sand_renderer
 
 
 def _camera(renderer, distance):
