@@ -218,12 +218,29 @@ def _cmd_render(args) -> int:
         mode=args.mode,
         pitch_deg=args.pitch,
         sphere=args.sphere,
+        samples=args.samples,
     )
+    samples = f", {args.samples}×{args.samples} samples" if args.samples > 1 else ""
     print(
         f"rendered {preset.name} ({args.mode}) at {args.distance} m, {args.time}, "
-        f"{args.size[0]}×{args.size[1]} into {printable(args.out)} in {stats['ms']:.0f} ms"
+        f"{args.size[0]}×{args.size[1]}{samples} into {printable(args.out)} "
+        f"in {stats['ms']:.0f} ms"
     )
     return 0
+
+
+def _samples(text: str) -> int:
+    from sand_editor.render.renderer import MAX_STILL_SAMPLES
+
+    try:
+        value = integer(text)
+    except ValueError:
+        value = 0
+    if not 1 <= value <= MAX_STILL_SAMPLES:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected a whole number of samples a side from 1 to {MAX_STILL_SAMPLES}"
+        )
+    return value
 
 
 def _render_scale(text: str) -> float:
@@ -429,6 +446,13 @@ def _parser() -> argparse.ArgumentParser:
     render.add_argument("--mode", choices=MODES, default="full", help="what to show")
     render.add_argument("--pitch", type=number, default=45.0, help="degrees below the horizon")
     render.add_argument("--sphere", action="store_true", help="put a sand sphere in view")
+    render.add_argument(
+        "--samples",
+        type=_samples,
+        default=1,
+        help="samples a pixel on each axis, 1 to 8: K×K frames, each moved by a K-th of a pixel "
+        "and filtering the sand as a frame K times larger does, averaged after the tone curve",
+    )
     render.set_defaults(run=_cmd_render)
 
     vr = sub.add_parser("vr", help="view the sand in VR (OpenXR), or in a desktop stereo preview")

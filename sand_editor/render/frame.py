@@ -15,7 +15,7 @@ from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import check_mode
-from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.renderer import SandRenderer, check_samples
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import parse_time, sky_at
 from sand_editor.view import MAX_DISTANCE_M, MAX_PITCH_DEG, MIN_DISTANCE_M, MIN_PITCH_DEG
@@ -42,10 +42,13 @@ def render_frame(
     mode: str = "full",
     pitch_deg: float = 45.0,
     sphere: bool = False,
+    samples: int = 1,
 ) -> dict:
-    """Render one frame and write it atomically as an sRGB PNG; returns timing."""
+    """Render one frame, with ``samples``×``samples`` samples a pixel
+    (``SandRenderer.render_still``), and write it atomically as an sRGB PNG; returns timing."""
     check_mode(mode)
     check_view(distance_m, pitch_deg)
+    check_samples(samples)
     sky = sky_at(parse_time(time_text))
     check_regular_target(out)  # before the work, not after it
     ctx = standalone_context()
@@ -54,7 +57,9 @@ def render_frame(
     try:
         material.update(preset)
         renderer.set_material(material)
-        pixels, elapsed_ms = _draw(renderer, size, distance_m, pitch_deg, sky, mode, sphere)
+        pixels, elapsed_ms = _draw(
+            renderer, size, distance_m, pitch_deg, sky, mode, sphere, samples
+        )
     finally:
         renderer.release()
         material.release()
@@ -64,7 +69,7 @@ def render_frame(
     return {"ms": elapsed_ms}
 
 
-def _draw(renderer, size, distance_m, pitch_deg, sky, mode, sphere):
+def _draw(renderer, size, distance_m, pitch_deg, sky, mode, sphere, samples):
     width, height = size
     terrain = renderer.terrain
     camera = camera_at_distance(
@@ -74,7 +79,7 @@ def _draw(renderer, size, distance_m, pitch_deg, sky, mode, sphere):
         ground_height=lambda x, z: float(terrain.height(x, z)),
     )
     start = time.perf_counter()
-    pixels = renderer.render_to_array(
-        width, height, FrameRequest(camera, sky, mode, show_sphere=sphere)
+    pixels = renderer.render_still(
+        width, height, FrameRequest(camera, sky, mode, show_sphere=sphere), samples
     )
     return pixels, (time.perf_counter() - start) * 1e3

@@ -39,6 +39,7 @@ def test_preset_argument_resolution(tmp_path):
         (["export", "paper-default", "--patch", "١.٥"], "--patch"),
         (["render", "paper-default", "--size", "١٠x١٠"], "--size"),
         (["render", "paper-default", "--distance", "٢"], "--distance"),
+        (["render", "paper-default", "--samples", "٢"], "--samples"),
         (["vr", "--frames", "١"], "--frames"),
         (["vr", "--render-scale", "٠.٥"], "--render-scale"),
         (["bench", "generator", "--sizes", "٦٤"], "--sizes"),

@@ -19,7 +19,7 @@ values = st.one_of(
     st.floats().map(str),
 )  # fmt: skip
 FLAGS = {
-    "render": ["--size", "--distance", "--time", "--mode", "--pitch"],
+    "render": ["--size", "--distance", "--time", "--mode", "--pitch", "--samples"],
     "bake": ["--size", "--target", "--normal-format", "--height-format"],
     "export": ["--size", "--patch", "--format"],
     "serve": ["--port", "--host"],
