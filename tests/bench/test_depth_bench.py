@@ -55,6 +55,9 @@ def test_depth_bench_writes_its_table_and_each_features_effect(tmp_path):
     assert rows[0.05]["all"]["flip"] < 0.8 * rows[0.05]["no_anisotropic"]["flip"]
     # ... and ripples filtered along the footprint keep the truth's contrast better.
     assert rows[10.0]["all"]["flip"] < rows[10.0]["no_sharp_ripples"]["flip"]
+    # The truth's samples gathered before the tone curve part from it up close, where sparkles
+    # far brighter than white lie within a pixel, more than where the sand is even.
+    assert 0.0 < rows[10.0]["gathered"] < rows[0.05]["gathered"] < 1.0, rows
     # A quarter-pixel pan changes our frames at most 1.5 times as much as it changes the truth.
     for row in rows.values():
         flicker = row["flicker"]
