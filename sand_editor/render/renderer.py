@@ -241,8 +241,11 @@ class SandRenderer:
         camera's pixel gathers the light that falls on it, then bloomed, exposed (metered on
         the average unless the request fixes it) and tone-mapped once: a sparkle keeps the
         light it brings to its pixel. The spread of the light the tone curve takes
-        (tone.glsl) is what the samples hold within them."""
+        (tone.glsl) is what the samples hold within them. A still fills its frame: a request
+        with a viewport raises ValueError."""
         check_samples(samples)
+        if request.viewport is not None:
+            raise ValueError("a still fills its frame: its request takes no viewport")
         if samples == 1:
             return self.render_to_array(width, height, request)
         start = time.perf_counter()

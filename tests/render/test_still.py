@@ -113,6 +113,12 @@ def test_samples_outside_one_to_eight_are_refused(renderer, samples):
         renderer.render_still(W, H, _request(renderer, 1.0), samples)
 
 
+def test_a_still_fills_its_frame(renderer):
+    request = dataclasses.replace(_request(renderer, 1.0), viewport=(0, 0, W // 2, H))
+    with pytest.raises(ValueError, match="viewport"):
+        renderer.render_still(W, H, request, 2)
+
+
 @pytest.mark.parametrize("scale", [0.0, -0.5, 1.5, float("nan")])
 def test_a_footprint_outside_a_pixel_is_refused(renderer, scale):
     with pytest.raises(ValueError, match="footprint_scale"):
