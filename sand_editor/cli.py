@@ -230,7 +230,7 @@ def _cmd_render(args) -> int:
 
 
 def _samples(text: str) -> int:
-    from sand_editor.render.renderer import MAX_STILL_SAMPLES
+    from sand_editor.render.still import MAX_STILL_SAMPLES
 
     try:
         value = integer(text)

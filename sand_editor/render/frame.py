@@ -15,9 +15,10 @@ from sand_editor.preset import Preset
 from sand_editor.render.camera import camera_at_distance
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.modes import check_mode
-from sand_editor.render.renderer import SandRenderer, check_samples
+from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import parse_time, sky_at
+from sand_editor.render.still import check_samples
 from sand_editor.view import MAX_DISTANCE_M, MAX_PITCH_DEG, MIN_DISTANCE_M, MIN_PITCH_DEG
 
 

@@ -11,7 +11,6 @@ import time
 import moderngl
 import numpy as np
 
-from sand_editor.colour import luminance
 from sand_editor.gl import (
     GLObjects,
     drawing_into,
@@ -30,13 +29,12 @@ from sand_editor.render.request import FrameRequest
 from sand_editor.render.scene import FrameScene, SandMesh, SceneMeshes
 from sand_editor.render.shadows import SceneShadows, SunShadows
 from sand_editor.render.sky import SKY_GRADIENT_EXPONENT, SkyState
+from sand_editor.render.still import GatheredLight, check_samples, sample_offsets
 from sand_editor.render.terrain import DuneTerrain
 
 GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the horizon
 SUN_ANGULAR_RADIUS = math.radians(0.6)  # twice the real sun: readable on small previews
 MOON_ANGULAR_RADIUS = math.radians(0.6)
-# The most samples a still's pixel may take on each axis: 8×8, the depth bench's truth.
-MAX_STILL_SAMPLES = 8
 # The sky program's uniforms that never change.
 SKY_CONSTANTS = {
     "u_ground_albedo": GROUND_ALBEDO,
@@ -64,16 +62,6 @@ def sky_uniforms(sky: SkyState, names=None) -> dict:
         "u_star_visibility": float(sky.star_visibility),
     }
     return values if names is None else {name: values[name] for name in names}
-
-
-def check_samples(samples) -> None:
-    """A still's samples a pixel on each axis: a whole number from 1 to MAX_STILL_SAMPLES."""
-    if isinstance(samples, bool) or not isinstance(samples, int):
-        raise ValueError(f"samples must be a whole number, got {samples!r}")
-    if not 1 <= samples <= MAX_STILL_SAMPLES:
-        raise ValueError(
-            f"samples {samples} is out of range; allowed 1 to {MAX_STILL_SAMPLES} on each axis"
-        )
 
 
 class SandRenderer:
@@ -248,33 +236,36 @@ class SandRenderer:
             raise ValueError("a still fills its frame: its request takes no viewport")
         if samples == 1:
             return self.render_to_array(width, height, request)
-        start = time.perf_counter()
-        offsets = (np.arange(samples) + 0.5) / samples - 0.5
-        light = np.zeros((height, width, 3))
-        spread = np.zeros((height, width))  # each sample's variance of luminance, summed
-        times = {}
-        for dy in offsets:
-            for dx in offsets:
-                sample = dataclasses.replace(
-                    request,
-                    camera=request.camera.shifted(-dx, -dy, (width, height)),
-                    footprint_scale=1.0 / samples,
-                )
-                for name, ms in self._draw_scene(sample, (width, height)).items():
-                    times[name] = times.get(name, 0.0) + ms
-                scene = self.post.scene_texture.read()
-                hdr = np.frombuffer(scene, np.float16).reshape(height, width, 4).astype(np.float64)
-                light += hdr[..., :3]
-                spread += hdr[..., 3] * luminance(hdr[..., :3]) ** 2
-        light /= samples**2
-        mean = luminance(light)
-        spread = np.divide(spread / samples**2, mean**2, out=np.zeros_like(mean), where=mean > 0)
-        spread = np.minimum(spread, np.finfo(np.float16).max)  # finite in the half floats
-        average = np.dstack([light, spread]).astype(np.float16)
-        self.post.scene_texture.write(average.tobytes())
+        gathered = GatheredLight(width, height)
+        for dx, dy in sample_offsets(samples):
+            sample = dataclasses.replace(
+                request,
+                camera=request.camera.shifted(-dx, -dy, (width, height)),
+                footprint_scale=1.0 / samples,
+            )
+            gathered.add(self.draw_light(sample, (width, height)))
         target = self._readback_target(width, height)
-        self._resolve(target, (0, 0, width, height), request, times, start)
+        self.resolve_light(target, (0, 0, width, height), request, gathered.scene())
         return self._read(target)
+
+    def draw_light(self, request: FrameRequest, size: tuple[int, int]) -> np.ndarray:
+        """The scene's light for ``request`` at ``size``, before bloom and the tone curve: the
+        scene target's (height, width, 4) half floats, light and spread, rows from the bottom."""
+        self._draw_scene(request, size)
+        data = self.post.scene_texture.read()
+        return np.frombuffer(data, np.float16).reshape(size[1], size[0], 4)
+
+    def resolve_light(
+        self, target: moderngl.Framebuffer, viewport, request: FrameRequest, scene: np.ndarray
+    ) -> dict:
+        """Bloom, expose and tone-map ``scene`` (as ``draw_light`` gives it, the viewport's
+        size) into ``viewport`` of ``target``, as ``render`` does its frame's light; the
+        exposure is metered on it unless the request fixes it."""
+        start = time.perf_counter()
+        self.post.resize(viewport[2], viewport[3])
+        self.post.scene_texture.write(np.ascontiguousarray(scene, np.float16).tobytes())
+        times = {"shadows_ms": 0.0, "sky_ms": 0.0, "surface_ms": 0.0}
+        return self._resolve(target, viewport, request, times, start)
 
     def _render_read(self, width: int, height: int, request: FrameRequest):
         """The frame as render_to_array gives it, and render's timings."""
