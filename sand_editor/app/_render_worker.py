@@ -29,6 +29,7 @@ from sand_editor.render.material import SandMaterial
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
+from sand_editor.render.still import GatheredLight, sample_offsets
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,6 +59,9 @@ class RenderJob:
     exposure: float | None = None  # overrides the view's (the bands use their moving frame's)
     moving: bool = False
     serial: int = 0  # the view's change count when the job was sent
+    # For a band of a still with more samples a pixel: (which sample, samples a side); the
+    # band then shows the light its samples so far gathered.
+    sample: tuple[int, int] | None = None
 
 
 @dataclasses.dataclass
@@ -69,6 +73,9 @@ class FrameResult:
     pixels: np.ndarray | None = None
     timings: dict = dataclasses.field(default_factory=dict)
     error: str | None = None
+    # The full-resolution frame's rows (from the bottom) the pixels cover: the job's band, or
+    # the whole frame once its last band is in (bloomed as a whole).
+    rows: tuple[int, int] | None = None
 
 
 class _Reporter(QObject):
@@ -103,6 +110,7 @@ class RenderWorker:
         self.grain_uploads = 0
         self.start_error: str | None = None
         self._targets: dict[str, moderngl.Framebuffer] = {}
+        self._gathered: tuple[tuple, GatheredLight] | None = None  # (the view's key, its light)
         self._jobs: queue.SimpleQueue = queue.SimpleQueue()
         self._reporter = _Reporter()
         self._reporter.done.connect(on_result)
@@ -205,6 +213,12 @@ class RenderWorker:
             ground_height=lambda x, z: float(terrain.height(x, z)),
             heading_deg=view.heading_deg,
         )
+        footprint = 1.0
+        if job.sample is not None:
+            index, samples = job.sample
+            dx, dy = sample_offsets(samples)[index]
+            camera = camera.shifted(-dx, -dy, (width, height))
+            footprint = 1.0 / samples
         if job.rows is None:
             size = (max(1, round(width * job.scale)), max(1, round(height * job.scale)))
             target = self._target("moving", *size)
@@ -214,24 +228,55 @@ class RenderWorker:
             target = self._target("full", width, height)
             camera = band_camera(camera, first, end, height)
             viewport = (0, first, width, end - first)
-        timings = self.renderer.render(
-            target,
-            FrameRequest(
-                camera,
-                sky_at(view.time_hours),
-                view.mode,
-                viewport=viewport,
-                exposure=job.exposure if job.exposure is not None else view.exposure,
-                show_sphere=view.show_sphere,
-                moving=job.moving,
-            ),
+        request = FrameRequest(
+            camera,
+            sky_at(view.time_hours),
+            view.mode,
+            viewport=viewport,
+            exposure=job.exposure if job.exposure is not None else view.exposure,
+            show_sphere=view.show_sphere,
+            moving=job.moving,
+            footprint_scale=footprint,
         )
+        drawn_pixels = viewport[2] * viewport[3]
+        if job.rows is None:
+            timings = self.renderer.render(target, request)
+        else:
+            timings, viewport = self._gather(job, request, target, viewport)
         finish_without_gil()
         data = target.read(viewport=viewport, components=4)
         pixels = np.frombuffer(data, np.uint8).reshape(viewport[3], viewport[2], 4)[::-1]
         timings["total_ms"] = (time.perf_counter() - start) * 1e3
-        timings["pixels"] = viewport[2] * viewport[3]
-        return FrameResult(job, np.ascontiguousarray(pixels), timings)
+        timings["pixels"] = drawn_pixels
+        rows = None if job.rows is None else (viewport[1], viewport[1] + viewport[3])
+        return FrameResult(job, np.ascontiguousarray(pixels), timings, rows=rows)
+
+    def _gather(self, job: RenderJob, request: FrameRequest, target, viewport):
+        """A band of the full-resolution frame, or of one sample of a still: its light added to
+        what the view's samples have gathered there (the first sample starts it anew), and the
+        band shows their average. The last band of a pass resolves the whole frame, so that
+        bloom spreads across the bands as it does across a frame drawn at once (each band's
+        own bloom, cut at its edges, smeared a sparkle's glow sideways). Returns the timings
+        and the viewport to read."""
+        first, end = job.rows
+        index, samples = job.sample if job.sample is not None else (0, 1)
+        key = (job.serial, job.size, samples)
+        if self._gathered is None or self._gathered[0] != key:
+            self._gathered = (key, GatheredLight(*job.size))
+        gathered = self._gathered[1]
+        if index == 0:
+            gathered.forget(first, end)
+        start = time.perf_counter()
+        gathered.add(self.renderer.draw_light(request, viewport[2:]), first)
+        drawn = (time.perf_counter() - start) * 1e3
+        if end == job.size[1]:
+            viewport = (0, 0, *job.size)
+            scene = gathered.scene()
+        else:
+            scene = gathered.scene(first, end)
+        timings = self.renderer.resolve_light(target, viewport, request, scene)
+        timings["surface_ms"] = drawn
+        return timings, viewport
 
     def _target(self, name: str, width: int, height: int) -> moderngl.Framebuffer:
         """An offscreen colour target, kept until its size changes."""
@@ -262,3 +307,4 @@ class RenderWorker:
             self.ctx.release()
         finally:
             self.ctx = self.material = self.renderer = None
+            self._gathered = None

@@ -20,6 +20,7 @@ from sand_editor.generator import SandTextures
 from sand_editor.preset import Preset
 from sand_editor.render.material import SandMaterial
 from sand_editor.render.renderer import SandRenderer
+from sand_editor.render.still import check_samples
 
 WHEEL_FACTOR = 1.15
 DEG_PER_PIXEL = 0.3
@@ -33,7 +34,9 @@ class SandView(QWidget):
     the thread with its next job, so a hidden view does no work for an edit. While the camera,
     the clock or the preset is changing, frames are drawn at reduced resolution (``scale``), and
     ``SETTLE_MS`` after the last change once more at full resolution, in bands of rows: a change
-    waits at most for the band in hand.
+    waits at most for the band in hand. With ``samples`` above 1 the full-resolution frame is
+    then drawn again as a still (``SandRenderer.render_still``), one sample of every pixel a
+    pass, band by band, each band showing the light its samples have gathered so far.
 
     Signals
     -------
@@ -44,7 +47,10 @@ class SandView(QWidget):
     rendered(dict)
         A frame was drawn: the renderer's timings plus ``total_ms`` (the thread's time for it,
         the frame finished), ``scale`` (the fraction of the widget's pixels along each side) and
-        ``refined`` (the share of the full-resolution frame done).
+        ``refined`` (the share of the full-resolution frame done), ``rows`` (those of it the
+        frame brought, from the bottom: a band's, the whole frame's with a pass's last band)
+        and, while a still's samples are drawn, ``sampled`` (the share of them done) and
+        ``samples``.
     failed(str)
         The view cannot draw (no suitable context, or drawing raised).
     """
@@ -78,6 +84,9 @@ class SandView(QWidget):
         self._band_exposure: float | None = None
         self._pixel_ms = 0.002  # what a pixel costs, measured on every frame
         self._refine_ms, self._bands = 0.0, 0
+        self.samples = 1  # samples a pixel on each axis at rest (set_samples)
+        self._sample_passes = 0  # samples of every pixel drawn since the last change
+        self._sample_rows = 0  # rows (from the bottom) of the pass under way
         self._settle = QTimer(self, singleShot=True, interval=SETTLE_MS)
         self._settle.timeout.connect(self._settled)
         self._drag_from: QPointF | None = None
@@ -113,6 +122,7 @@ class SandView(QWidget):
             and self._in_flight is None
             and self.last_timings is not None
             and self.last_timings["refined"] == 1.0
+            and not self._samples_left()
         )
 
     def call_in_context(self, function):
@@ -141,6 +151,13 @@ class SandView(QWidget):
         # else only the generation changed: the view redraws when its tile arrives, never
         # before with the grains it has.
 
+    def set_samples(self, samples: int) -> None:
+        """Draw the view at rest with ``samples``×``samples`` samples a pixel (1 to 8)."""
+        check_samples(samples)
+        if samples != self.samples:
+            self.samples = samples
+            self.changing()
+
     def set_grains(self, textures: SandTextures) -> None:
         """A full tile from the editor's generation (it names its own), handed to the thread
         with the next job."""
@@ -152,6 +169,7 @@ class SandView(QWidget):
         self._moving = True
         self._serial += 1
         self._refined_rows = 0
+        self._sample_passes = self._sample_rows = 0
         self._settle.start()
         self._request_frame()
 
@@ -175,17 +193,23 @@ class SandView(QWidget):
         if self._in_flight is None and self.isVisible() and self.error is None:
             self._send_next()
 
+    def _samples_left(self) -> bool:
+        return self.samples > 1 and self._sample_passes < self.samples**2
+
     def _send_next(self) -> None:
         """Send the job the view needs now: a moving frame while anything changes (or before
-        any), else the next band of the full-resolution frame; nothing once it is complete."""
+        any), else the next band of the full-resolution frame, then of its samples; nothing once
+        they are complete."""
         self._wanted = False
         size = self._size()
         if self._full.shape[:2] != size[::-1]:
             self._full = np.zeros((size[1], size[0], 4), np.uint8)
             self._full_image = _image_of(self._full)
             self._refined_rows = 0
+            self._sample_passes = self._sample_rows = 0
         moving = self._moving or self._moving_image is None or self._pending_grains is not None
-        if not moving and self._refined_rows >= size[1]:
+        refined = self._refined_rows >= size[1]
+        if not moving and refined and not self._samples_left():
             return  # the full-resolution frame is complete
         grains, self._pending_grains = self._pending_grains, None
         common = dict(view=self._view, size=size, preset=self._preset, grains=grains,
@@ -193,12 +217,14 @@ class SandView(QWidget):
         if moving:
             job = RenderJob(scale=self.moving_scale, moving=self._moving, **common)
         else:
-            first = self._refined_rows
-            if first == 0:
+            first = self._sample_rows if refined else self._refined_rows
+            if first == 0 and not refined:
                 self._refine_ms, self._bands = 0.0, 0
             rows = int(FRAME_BUDGET_MS / max(self._pixel_ms * size[0], 1e-6))
             rows = min(max(rows, MIN_BAND_ROWS), size[1] - first)
-            job = RenderJob(rows=(first, first + rows), exposure=self._band_exposure, **common)
+            sample = (self._sample_passes, self.samples) if refined else None
+            job = RenderJob(rows=(first, first + rows), exposure=self._band_exposure,
+                            sample=sample, **common)  # fmt: skip
         self._in_flight = job
         self.gl.submit(job)
 
@@ -212,7 +238,8 @@ class SandView(QWidget):
                 self._request_frame()
             return
         self._take(result)
-        if self._wanted or (not self._moving and self._refined_rows < self._full.shape[0]):
+        refining = self._refined_rows < self._full.shape[0] or self._samples_left()
+        if self._wanted or (not self._moving and refining):
             self._request_frame()
 
     def _take(self, result: FrameResult) -> None:
@@ -227,20 +254,27 @@ class SandView(QWidget):
         else:
             if job.serial != self._serial or job.size[::-1] != self._full.shape[:2]:
                 return  # drawn for a view that has changed since
-            first, end = job.rows
+            first, end = result.rows or job.rows
             height = self._full.shape[0]
             self._full[height - end : height - first] = pixels
-            self._refined_rows = end
-            self._refine_ms += timings["total_ms"]
-            self._bands += 1
+            if job.sample is None:
+                self._refined_rows = end
+                self._refine_ms += timings["total_ms"]
+                self._bands += 1
+            else:
+                self._sample_rows = end % height
+                self._sample_passes += end == height
+                passes = self._sample_passes + self._sample_rows / height
+                timings.update(sampled=passes / self.samples**2, samples=self.samples)
             timings.update(
                 scale=1.0,
-                refined=end / height,
+                rows=(first, end),
+                refined=self._refined_rows / height,
                 refine_ms=self._refine_ms,
                 bands=self._bands,
             )
         self.frames += 1
-        self.full_frames += timings["refined"] == 1.0
+        self.full_frames += timings["refined"] == 1.0 and job.sample is None
         self.last_timings = timings
         self.update()
         self.rendered.emit(timings)

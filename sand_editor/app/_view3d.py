@@ -37,6 +37,7 @@ from sand_editor.view import (
 CONTROLS_REFRESH_MS = 250
 DISTANCE_STEPS = 1000  # slider positions across the log range
 DAY_TICK_MS = 33
+STILL_SAMPLES = (1, 2, 4)  # the samples a pixel on each axis the view offers at rest
 # Changes whose controls are redrawn a few times a second rather than at once (a drag in the view,
 # the running clock): each redraw of the controls costs a composition of the window.
 _DRAG = "drag"
@@ -108,6 +109,14 @@ class View3DPanel(QWidget):
         self.exposure.setToolTip(
             "Exposure: auto adapts to the light and the scene as an eye does; a number fixes it."
         )
+        self.samples = QComboBox(objectName="view3d-samples")
+        for samples in STILL_SAMPLES:
+            self.samples.addItem("1" if samples == 1 else f"{samples}×{samples}", samples)
+        self.samples.setToolTip(
+            "Samples a pixel once the view rests: the frame is drawn again that many times, each "
+            "moved by a share of a pixel, and their light gathered (grains' outlines, relief "
+            "edges and shadows resolved within the pixel; sparkles keep their light)."
+        )
         self.sphere = QCheckBox("Sphere", objectName="view3d-sphere")
         self.sphere.setToolTip("Put a sand-covered sphere beside the point in view.")
         self.status = QLabel("—", objectName="view3d-status")
@@ -127,6 +136,7 @@ class View3DPanel(QWidget):
             ("Day speed", self.day_speed, 0),
             ("Mode", self.mode_combo, 0),
             ("Exposure", self.exposure, 0),
+            ("Samples", self.samples, 0),
             ("", self.sphere, 0),
         )
         for row, items in enumerate((row1, row2)):
@@ -167,6 +177,9 @@ class View3DPanel(QWidget):
             lambda: self._set(mode=self.mode_combo.currentData())
         )
         self.sphere.toggled.connect(lambda on: self._set(show_sphere=on))
+        self.samples.currentIndexChanged.connect(
+            lambda: self.view.set_samples(self.samples.currentData())
+        )
         self.exposure.valueChanged.connect(
             lambda value: self._set(exposure=float(value) if value > 0.0 else None)
         )
@@ -274,6 +287,9 @@ class View3DPanel(QWidget):
             frame = f"refining to full resolution: {timings['refined']:.0%}"
         else:
             frame = f"full resolution in {timings['refine_ms']:.0f} ms ({timings['bands']} bands)"
+        if "sampled" in timings:
+            k = timings["samples"]
+            frame += f" · {k}×{k} samples: {timings['sampled']:.0%}"
         self.status.setText(
             f"{self.view.mode} · {frame} · CPU sky {timings['sky_ms']:.1f}, "
             f"surface {timings['surface_ms']:.1f}, post {timings['post_ms']:.1f} ms · "

@@ -9,6 +9,7 @@ from PySide6.QtCore import QPoint, Qt
 from PySide6.QtGui import QImage
 
 from sand_editor.app import EditorWindow
+from sand_editor.app._refinement import MIN_BAND_ROWS
 from sand_editor.app._view3d import DISTANCE_STEPS, MAX_DISTANCE_M, MIN_DISTANCE_M
 from sand_editor.render.modes import MODES
 from sand_editor.resources import bundled_preset
@@ -111,6 +112,76 @@ def test_blend_mode_changes_the_image(panel, qtbot):
     assert panel.view.mode == "blend"
     blend = frame(panel, qtbot)
     assert np.abs(blend.astype(int) - full.astype(int)).mean() > 5
+
+
+def _drawn_at_once(panel) -> np.ndarray:
+    """The view's frame drawn by its renderer as one frame (rows top-down, RGB)."""
+    from sand_editor.render.camera import camera_at_distance
+    from sand_editor.render.request import FrameRequest
+    from sand_editor.render.sky import sky_at
+
+    view, (width, height) = panel.view, VIEW_SIZE
+    exposure = view.last_timings["exposure"]
+
+    def draw(ctx):
+        terrain = view.renderer.terrain
+        camera = camera_at_distance(
+            view.distance_m, view.pitch_deg, width / height,
+            ground_height=lambda x, z: float(terrain.height(x, z)), heading_deg=view.heading_deg,
+        )  # fmt: skip
+        request = FrameRequest(camera, sky_at(view.time_hours), view.mode, exposure=exposure)
+        return view.renderer.render_to_array(width, height, request)
+
+    return view.call_in_context(draw)
+
+
+def test_the_resting_view_blooms_as_one_frame(panel, qtbot, monkeypatch):
+    """The full-resolution frame is drawn in bands, but its last band brings the whole frame,
+    its light resolved at once, so that bloom spreads across the bands' edges (each band's own
+    bloom, cut at its edges, smeared a sparkle's glow sideways into streaks); the light it
+    resolves is what the bands drew, so the frame is theirs but for that glow."""
+    import sand_editor.app._sand_view as sand_view
+
+    monkeypatch.setattr(sand_view, "FRAME_BUDGET_MS", 1e-3)  # bands of MIN_BAND_ROWS rows
+    panel.distance_spin.setValue(0.3)
+    panel.pitch_slider.setValue(20)
+    bands = []
+    panel.view.rendered.connect(lambda t: t["scale"] == 1.0 and bands.append(t["rows"]))
+    panel.view.changing()
+    frame(panel, qtbot)
+    height = VIEW_SIZE[1]
+    steps = range(0, height, MIN_BAND_ROWS)
+    assert bands[:-1] == [(first, first + MIN_BAND_ROWS) for first in steps][:-1], bands
+    assert bands[-1] == (0, height), bands
+
+
+def test_samples_draw_the_resting_view_again_as_a_still(panel, qtbot):
+    """2×2 samples: once the frame is at full resolution, four more passes, band by band, each
+    showing the light gathered so far; the view is at rest when all four are in. Up close the
+    still resolves the grains' outlines (other pixels), its light the frame's; one sample again
+    draws the frame as before, and a change starts the samples over."""
+    panel.distance_spin.setValue(0.3)
+    panel.pitch_slider.setValue(20)
+    one = frame(panel, qtbot)
+    sampled = []
+    panel.view.rendered.connect(lambda t: "sampled" in t and sampled.append(t["sampled"]))
+    panel.samples.setCurrentIndex(panel.samples.findData(2))
+    assert panel.view.samples == 2
+    still = frame(panel, qtbot)
+    assert sampled and sampled[-1] == 1.0 and sampled == sorted(sampled), sampled
+    assert "2×2 samples: 100%" in panel.status.text()
+    assert np.abs(still.astype(int) - one.astype(int)).mean() > 1.0
+    assert still.mean() == pytest.approx(one.mean(), rel=0.05)
+    panel.pitch_slider.setValue(25)  # a change: the samples begin again
+    assert not panel.view.at_rest
+    frame(panel, qtbot)
+    assert sampled.count(1.0) == 2
+    panel.samples.setCurrentIndex(panel.samples.findData(1))
+    again = frame(panel, qtbot)
+    assert panel.view.samples == 1 and "samples" not in panel.status.text()
+    assert again.shape == one.shape
+    with pytest.raises(ValueError, match="samples"):
+        panel.view.set_samples(9)
 
 
 @pytest.mark.parametrize("sphere", [False, True])
