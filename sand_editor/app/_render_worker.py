@@ -252,14 +252,16 @@ class RenderWorker:
         return FrameResult(job, np.ascontiguousarray(pixels), timings, rows=rows)
 
     def _gather(self, job: RenderJob, request: FrameRequest, target, viewport):
-        """A band of the full-resolution frame, or of one sample of a still: its light added to
-        what the view's samples have gathered there (the first sample starts it anew), and the
-        band shows their average. The last band of a pass resolves the whole frame, so that
-        bloom spreads across the bands as it does across a frame drawn at once (each band's
-        own bloom, cut at its edges, smeared a sparkle's glow sideways). Returns the timings
-        and the viewport to read."""
+        """A band of the full-resolution frame, drawn as a frame is; or of one sample of a
+        still: its light added to what the view's samples have gathered there (the first sample
+        starts it anew), the band showing their average, and the last band of a pass resolving
+        the whole frame, so that bloom spreads across the bands as over a frame drawn at once
+        (a band's own bloom is cut at its edges). Returns the timings and the viewport to
+        read."""
+        if job.sample is None:
+            return self.renderer.render(target, request), viewport
         first, end = job.rows
-        index, samples = job.sample if job.sample is not None else (0, 1)
+        index, samples = job.sample
         key = (job.serial, job.size, samples)
         if self._gathered is None or self._gathered[0] != key:
             self._gathered = (key, GatheredLight(*job.size))

@@ -252,8 +252,15 @@ class SandRenderer:
         """The scene's light for ``request`` at ``size``, before bloom and the tone curve: the
         scene target's (height, width, 4) half floats, light and spread, rows from the bottom."""
         self._draw_scene(request, size)
+        return self.scene_light()
+
+    def scene_light(self) -> np.ndarray:
+        """The light of the last frame drawn, as ``draw_light`` gives it."""
+        if self.wait_without_gil:
+            finish_without_gil()  # the drawing, which the read would wait for holding the lock
+        width, height = self.post.size
         data = self.post.scene_texture.read()
-        return np.frombuffer(data, np.float16).reshape(size[1], size[0], 4)
+        return np.frombuffer(data, np.float16).reshape(height, width, 4)
 
     def resolve_light(
         self, target: moderngl.Framebuffer, viewport, request: FrameRequest, scene: np.ndarray
