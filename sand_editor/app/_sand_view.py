@@ -48,9 +48,9 @@ class SandView(QWidget):
         A frame was drawn: the renderer's timings plus ``total_ms`` (the thread's time for it,
         the frame finished), ``scale`` (the fraction of the widget's pixels along each side) and
         ``refined`` (the share of the full-resolution frame done), ``rows`` (those of it the
-        frame brought, from the bottom: a band's, the whole frame's with a pass's last band)
-        and, while a still's samples are drawn, ``sampled`` (the share of them done) and
-        ``samples``.
+        frame brought, from the bottom: a band's, or the whole frame's with the last band of a
+        still's pass) and, while a still's samples are drawn, ``sampled`` (the share of them
+        done) and ``samples``.
     failed(str)
         The view cannot draw (no suitable context, or drawing raised).
     """
