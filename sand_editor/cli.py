@@ -230,16 +230,15 @@ def _cmd_render(args) -> int:
 
 
 def _samples(text: str) -> int:
-    from sand_editor.render.still import MAX_STILL_SAMPLES
+    from sand_editor.render.still import MAX_STILL_SAMPLES, check_samples
 
     try:
         value = integer(text)
+        check_samples(value)
     except ValueError:
-        value = 0
-    if not 1 <= value <= MAX_STILL_SAMPLES:
         raise argparse.ArgumentTypeError(
             f"{text!r}: expected a whole number of samples a side from 1 to {MAX_STILL_SAMPLES}"
-        )
+        ) from None
     return value
 
 

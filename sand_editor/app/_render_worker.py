@@ -29,7 +29,7 @@ from sand_editor.render.material import SandMaterial
 from sand_editor.render.renderer import SandRenderer
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
-from sand_editor.render.still import GatheredLight, sample_offsets
+from sand_editor.render.still import GatheredLight, sample_camera
 
 
 @dataclasses.dataclass(frozen=True)
@@ -216,8 +216,7 @@ class RenderWorker:
         footprint = 1.0
         if job.sample is not None:
             index, samples = job.sample
-            dx, dy = sample_offsets(samples)[index]
-            camera = camera.shifted(-dx, -dy, (width, height))
+            camera = sample_camera(camera, samples, index, (width, height))
             footprint = 1.0 / samples
         if job.rows is None:
             size = (max(1, round(width * job.scale)), max(1, round(height * job.scale)))
@@ -239,7 +238,7 @@ class RenderWorker:
             footprint_scale=footprint,
         )
         drawn_pixels = viewport[2] * viewport[3]
-        if job.rows is None:
+        if job.sample is None:
             timings = self.renderer.render(target, request)
         else:
             timings, viewport = self._gather(job, request, target, viewport)
@@ -252,14 +251,11 @@ class RenderWorker:
         return FrameResult(job, np.ascontiguousarray(pixels), timings, rows=rows)
 
     def _gather(self, job: RenderJob, request: FrameRequest, target, viewport):
-        """A band of the full-resolution frame, drawn as a frame is; or of one sample of a
-        still: its light added to what the view's samples have gathered there (the first sample
-        starts it anew), the band showing their average, and the last band of a pass resolving
-        the whole frame, so that bloom spreads across the bands as over a frame drawn at once
-        (a band's own bloom is cut at its edges). Returns the timings and the viewport to
-        read."""
-        if job.sample is None:
-            return self.renderer.render(target, request), viewport
+        """A band of one sample of a still: its light added to what the view's samples have
+        gathered there (the first sample starts it anew), the band showing their average, and
+        the last band of a pass resolving the whole frame, so that bloom spreads across the
+        bands as over a frame drawn at once (a band's own bloom is cut at its edges). Returns
+        the timings and the viewport to read."""
         first, end = job.rows
         index, samples = job.sample
         key = (job.serial, job.size, samples)

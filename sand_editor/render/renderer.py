@@ -29,7 +29,7 @@ from sand_editor.render.request import FrameRequest
 from sand_editor.render.scene import FrameScene, SandMesh, SceneMeshes
 from sand_editor.render.shadows import SceneShadows, SunShadows
 from sand_editor.render.sky import SKY_GRADIENT_EXPONENT, SkyState
-from sand_editor.render.still import GatheredLight, check_samples, sample_offsets
+from sand_editor.render.still import GatheredLight, check_samples, sample_camera
 from sand_editor.render.terrain import DuneTerrain
 
 GROUND_ALBEDO = (0.45, 0.33, 0.22)  # the sky's stand-in for ground below the horizon
@@ -237,10 +237,10 @@ class SandRenderer:
         if samples == 1:
             return self.render_to_array(width, height, request)
         gathered = GatheredLight(width, height)
-        for dx, dy in sample_offsets(samples):
+        for index in range(samples**2):
             sample = dataclasses.replace(
                 request,
-                camera=request.camera.shifted(-dx, -dy, (width, height)),
+                camera=sample_camera(request.camera, samples, index, (width, height)),
                 footprint_scale=1.0 / samples,
             )
             gathered.add(self.draw_light(sample, (width, height)))

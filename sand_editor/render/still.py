@@ -29,6 +29,14 @@ def sample_offsets(samples: int) -> list[tuple[float, float]]:
     return [(float(dx), float(dy)) for dy in steps for dx in steps]
 
 
+def sample_camera(camera, samples: int, index: int, size: tuple[int, int]):
+    """The camera of sample ``index`` of a still of ``size`` with ``samples`` a side: each pixel
+    sees the point at that sample's place in it (with ``FrameRequest.footprint_scale`` of
+    1/``samples``)."""
+    dx, dy = sample_offsets(samples)[index]
+    return camera.shifted(-dx, -dy, size)
+
+
 class GatheredLight:
     """The light of a frame's samples summed per pixel, rows from the bottom as the scene
     target holds them: each sample's light, and the variance of luminance within it (its
