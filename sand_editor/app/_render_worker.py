@@ -60,7 +60,8 @@ class RenderJob:
     moving: bool = False
     serial: int = 0  # the view's change count when the job was sent
     # For a band of a still with more samples a pixel: (which sample, samples a side); the
-    # band then shows the light its samples so far gathered.
+    # band then shows the light its samples so far gathered. A band of either kind that ends
+    # the frame brings the whole frame, its light bloomed at once.
     sample: tuple[int, int] | None = None
 
 
@@ -198,6 +199,17 @@ class RenderWorker:
         ):
             self.material.update(job.preset)
 
+    def view_camera(self, view: ViewParams, size: tuple[int, int]):
+        """The camera of ``view`` for a frame of ``size`` over the renderer's terrain."""
+        terrain = self.renderer.terrain
+        return camera_at_distance(
+            view.distance_m,
+            view.pitch_deg,
+            size[0] / size[1],
+            ground_height=lambda x, z: float(terrain.height(x, z)),
+            heading_deg=view.heading_deg,
+        )
+
     def _draw(self, job: RenderJob) -> FrameResult:
         start = time.perf_counter()
         self._sync_material(job)
@@ -205,14 +217,7 @@ class RenderWorker:
             return FrameResult(job)  # the first tile is still being generated
         view = job.view
         width, height = job.size
-        terrain = self.renderer.terrain
-        camera = camera_at_distance(
-            view.distance_m,
-            view.pitch_deg,
-            width / height,
-            ground_height=lambda x, z: float(terrain.height(x, z)),
-            heading_deg=view.heading_deg,
-        )
+        camera = self.view_camera(view, job.size)
         footprint = 1.0
         if job.sample is not None:
             index, samples = job.sample
@@ -238,7 +243,7 @@ class RenderWorker:
             footprint_scale=footprint,
         )
         drawn_pixels = viewport[2] * viewport[3]
-        if job.sample is None:
+        if job.rows is None:
             timings = self.renderer.render(target, request)
         else:
             timings, viewport = self._gather(job, request, target, viewport)
@@ -251,13 +256,14 @@ class RenderWorker:
         return FrameResult(job, np.ascontiguousarray(pixels), timings, rows=rows)
 
     def _gather(self, job: RenderJob, request: FrameRequest, target, viewport):
-        """A band of one sample of a still: its light added to what the view's samples have
-        gathered there (the first sample starts it anew), the band showing their average, and
-        the last band of a pass resolving the whole frame, so that bloom spreads across the
-        bands as over a frame drawn at once (a band's own bloom is cut at its edges). Returns
-        the timings and the viewport to read."""
+        """A band of the full-resolution frame, or of one sample of a still: its light added
+        to what the view's samples have gathered there (the first sample starts it anew), the
+        band showing their average, and the last band of a pass resolving the whole frame, so
+        that bloom spreads across the bands as over a frame drawn at once (a band's own bloom
+        is cut at its edges, which smears a sparkle's glow sideways). Returns the timings and
+        the viewport to read."""
         first, end = job.rows
-        index, samples = job.sample
+        index, samples = job.sample or (0, 1)
         key = (job.serial, job.size, samples)
         if self._gathered is None or self._gathered[0] != key:
             self._gathered = (key, GatheredLight(*job.size))

@@ -48,9 +48,9 @@ class SandView(QWidget):
         A frame was drawn: the renderer's timings plus ``total_ms`` (the thread's time for it,
         the frame finished), ``scale`` (the fraction of the widget's pixels along each side) and
         ``refined`` (the share of the full-resolution frame done), ``rows`` (those of it the
-        frame brought, from the bottom: a band's, or the whole frame's with the last band of a
-        still's pass) and, while a still's samples are drawn, ``sampled`` (the share of them
-        done) and ``samples``.
+        frame brought, from the bottom: a band's, or the whole frame's with the last band of
+        the frame or of a still's pass, its light bloomed at once) and, while a still's samples
+        are drawn, ``sampled`` (the share of them done) and ``samples``.
     failed(str)
         The view cannot draw (no suitable context, or drawing raised).
     """
@@ -124,6 +124,16 @@ class SandView(QWidget):
             and self.last_timings["refined"] == 1.0
             and not self._samples_left()
         )
+
+    @property
+    def view(self) -> ViewParams:
+        """What the camera sees now (the view's controls)."""
+        return self._view
+
+    @property
+    def full_frame(self) -> np.ndarray:
+        """The full-resolution frame as drawn so far, rows top-down, RGBA (a copy)."""
+        return self._full.copy()
 
     def call_in_context(self, function):
         """``function(ctx)`` run on the drawing thread with its context current; its value."""
