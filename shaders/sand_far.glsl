@@ -49,9 +49,18 @@ uniform float u_no_ripples;   // 0 on the dunes; 1 on objects (a tray, a sphere)
 // Everything is an analytic function of the phase, so the footprint's filtering is too: the
 // phase varies over the pixel by σ, and the ripple's slope is the footprint's mean, attenuated
 // by exp(−σ²/2), which fades ripples smaller than a pixel smoothly (no moiré at any distance).
-// (Handing the slope variance the filter removes to the diffuse light's spread of normals, as
-// LEAN and Toksvig mapping do, was measured: against the frame supersampled 8×8 at a low sun it
-// left the shipped sands' far frames 2–5 % darker at 10–30 m, against 0–2 % without it.)
+// The slopes the filter takes out still turn the sand to and from the light: their deviation
+// along the ripples' axis (`unresolved`) is handed to the diffuse light as two tilts either
+// side of the mean (filtered_diffuse_light), as LEAN and Toksvig mapping hand a filtered
+// normal map's variance to the BRDF, but along the one axis ripples tilt on (spread around the
+// normal, as those do, it left the far frames 2–5 % too dark at a low sun). Under a sun along
+// the ripples two tilts hold their slopes' light within 6 % where the mean slope alone misses
+// it by up to half (test_ripple_field.py). Its variance is handed over as (1 − kept)² of it,
+// in full only where the ripples lie well below the pixel: where the footprint spans about a
+// ripple its mean slope still follows it, and two tilts about that darkened the frames; and
+// at most RIPPLE_UNRESOLVED_MAX of slope (far_brdf.py), as tilts steeper than that, turned
+// from the eye and bent back to it, drew strong ripples' frames farther from the 8×8
+// supersampled ones in some light (bench depth's view, ripple strength 0.3 and 1, at 07:00).
 const float RIPPLE_WAVELENGTH = 0.09;  // metres
 const float RIPPLE_SHARPNESS = 0.5;    // the profile's asymmetry on gentle ground (0: a sine)
 const float RIPPLE_STEEP_SHARPNESS = 0.9;
@@ -104,10 +113,21 @@ float ripple_defect(vec2 q) {
     return sign_ * winding * (1.0 - smoothstep(0.35 * reach, reach, to_segment));
 }
 
+// The mean square over a period of the ripple profile's slope (below) of asymmetry `sharp`, in
+// units of its steepest: 1/2 for a sine (RIPPLE_MEAN_SQUARE_*: far_brdf.py's fit).
+float ripple_mean_square(float sharp) {
+    float s2 = sharp * sharp;
+    return 0.5 * (1.0 + s2 * (RIPPLE_MEAN_SQUARE_A + RIPPLE_MEAN_SQUARE_B * sharp))
+         / ((1.0 + sharp) * (1.0 + sharp));
+}
+
 // The ripples' slope at q (metres in the wind's frame: x along the wind), filtered over the
 // footprint of derivatives dx, dy, on gentle (steep = 0) to steep (1) ground; the phase is set
 // back by `bend` metres (RIPPLE_BEND times the dune's height), whose gradient is bend_grad.
-vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_grad) {
+// `unresolved`: the deviation of the slopes the filter takes out, along the axis they lie on
+// (the unfiltered profile's mean square less the filtered one's), as much as is handed on.
+vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_grad,
+                out vec2 unresolved) {
     vec3 wander = value_noise(q / RIPPLE_WANDER_SCALE, RIPPLE_KEY);
     float k = 2.0 * PI / RIPPLE_WAVELENGTH;
     float shift = RIPPLE_WANDER * RIPPLE_WAVELENGTH;  // metres of wander per unit of noise
@@ -124,13 +144,18 @@ vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_gra
     // h = sin(t + s·sin t)/k: its slope is dh/dt·∇t/k, largest 1 at the lee (over 1 + s).
     // The asymmetry is the profile's harmonics, which the footprint filters as its second:
     // exp(−4σ²/2) against the fundamental's exp(−σ²/2).
-    float sharp = mix(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, steep) * exp(-1.5 * spread2);
+    float sharpest = mix(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, steep);
+    float sharp = sharpest * exp(-1.5 * spread2);
     float profile = cos(phase + sharp * sin(phase)) * (1.0 + sharp * cos(phase)) / (1.0 + sharp);
+    float lost = ripple_mean_square(sharpest) - keep * keep * ripple_mean_square(sharp);
+    unresolved = (1.0 - keep) * sqrt(max(lost, 0.0)) * along;
     return keep * profile * along;
 }
 
-// The macro normal with ripples across the wind and fine detail.
-vec3 rippled_normal(SurfacePoint s) {
+// The macro normal with ripples across the wind and fine detail; `unresolved`: the deviation
+// of the ripples' slopes that the footprint averages away and hands to the diffuse light, in
+// the tangent plane.
+vec3 rippled_normal(SurfacePoint s, out vec2 unresolved) {
     // The ripples' frame: +x the way the wind blows (from the compass bearing
     // u_wind_direction), in uv, which is the world's (x, z) on the dunes.
     float from = radians(u_wind_direction);
@@ -141,9 +166,13 @@ vec3 rippled_normal(SurfacePoint s) {
     vec2 height_grad = -vec2(s.normal.x, s.normal.z) / up;
     float steep = smoothstep(0.2, 0.45, length(s.normal.xz));
     vec2 dx = transpose(frame) * footprint_dx(s.uv), dy = transpose(frame) * footprint_dy(s.uv);
+    vec2 lost;
     vec2 slope = ripples_at(transpose(frame) * s.uv, dx, dy, steep, RIPPLE_BEND * s.position.y,
-                            RIPPLE_BEND * (transpose(frame) * height_grad));
+                            RIPPLE_BEND * (transpose(frame) * height_grad), lost);
     vec2 grad = frame * slope * (1.0 - u_no_ripples);
+    unresolved = RIPPLE_SLOPE_GAIN * u_ripple_strength * (1.0 - u_no_ripples) * (frame * lost);
+    float deviation = length(unresolved);
+    if (deviation > RIPPLE_UNRESOLVED_MAX) unresolved *= RIPPLE_UNRESOLVED_MAX / deviation;
     vec2 at = s.uv * 4.0;
     vec2 detail = textureGrad(u_detail, at, footprint_dx(at), footprint_dy(at)).xy;
     grad += detail * (u_detail_strength / max(u_ripple_strength, 1e-3));
@@ -151,16 +180,25 @@ vec3 rippled_normal(SurfacePoint s) {
     return to_world(n_t, s);
 }
 
-// The surface point on its ripples: the rippled normal, bent towards the eye where a ripple's
-// back would face away from it (a hard dark patch that no real ripple shows: its back would be
-// hidden by its crest), with the tangent frame turned to it.
-SurfacePoint rippled_point(SurfacePoint s, vec3 v) {
-    vec3 n = rippled_normal(s);
+// The point turned to the unit normal n, bent towards the eye (along v) where n would face
+// away from it, with its tangent frame turned to it.
+SurfacePoint turned_to(SurfacePoint s, vec3 n, vec3 v) {
     float facing = dot(n, v);
     if (facing < MIN_FACING) n = normalize(n + (MIN_FACING - facing) * v);
     SurfacePoint r = s;
     r.normal = n;
     r.tangent = normalize(s.tangent - dot(s.tangent, n) * n);
     r.bitangent = cross(n, r.tangent) * sign(dot(cross(s.normal, s.tangent), s.bitangent));
+    return r;
+}
+
+// The surface point on its ripples: the rippled normal, bent towards the eye where a ripple's
+// back would face away from it (a hard dark patch that no real ripple shows: its back would be
+// hidden by its crest), with the tangent frame turned to it and the ripples' slopes too fine
+// for the pixel in `unresolved`.
+SurfacePoint rippled_point(SurfacePoint s, vec3 v) {
+    vec2 unresolved;
+    SurfacePoint r = turned_to(s, rippled_normal(s, unresolved), v);
+    r.unresolved = unresolved;
     return r;
 }

@@ -17,6 +17,9 @@ struct SurfacePoint {
     vec3 tangent;    // unit, world, direction of +u
     vec3 bitangent;  // unit, world, direction of +v
     vec2 uv;         // metres along the surface; the material applies its scale
+    // The ripples' slopes that the pixel's footprint averages away (sand_far.glsl's
+    // rippled_point): their deviation along the axis they lie on, in the tangent plane.
+    vec2 unresolved;
 };
 
 uniform sampler2D u_albedo;          // linear albedo
@@ -83,6 +86,7 @@ SurfacePoint in_copy_axes(SurfacePoint s, mat2 axes) {
     SurfacePoint c = s;
     c.tangent = axes[0][0] * s.tangent + axes[1][0] * s.bitangent;
     c.bitangent = axes[0][1] * s.tangent + axes[1][1] * s.bitangent;
+    c.unresolved = axes * s.unresolved;
     return c;
 }
 
@@ -214,21 +218,11 @@ float diffuse_correction(vec3 l, vec3 e, float lod) {
     return mix(1.0, texture(u_diffuse_correction, direction_table_at(l, e)).r, whole);
 }
 
-// The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
-// their squares), as the grains themselves give it when each is resolved: at the mean normal
-// and four more whose nx, ny hold that mean and the variance along two axes exactly. Unit
-// normals rather than slopes: bounded, and the cosine of the light is linear in them. The axes
-// are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
-// turning away from the eye) depends on the eye: fixed texture axes would make the average
-// jump where the eye's azimuth crosses them. The same average at every scale, so that the far
-// range's diffuse light is the close range's: the five's light is corrected by what they
-// miss of the grains' own, as the footprint's level `lod` grows to hold whole grains
-// (diffuse_correction). `spread`: x the variance of the sun's and the moon's luminance over the
-// five (their light's spread across the footprint), y the sun's mean luminance.
-vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, vec3 v,
-                            Lighting L, out vec2 spread) {
-    vec2 m = normals.xy;
-    vec2 variance = max(normals.zw - m * m, 0.0);
+// The light of the five normals of a footprint of grains whose normals have mean m and
+// variance `variance` (their x, y in the tangent plane of s), added with `share` of its weight
+// to sum and to the moments of its luminance (mean, mean square, the sun's mean).
+void five_normals_light(vec3 kd, vec2 m, vec2 variance, float lod, SurfacePoint s, vec3 v,
+                        Lighting L, float share, inout vec3 sum, inout vec3 moments) {
     vec3 e = to_tangent(v, s);
     vec2 towards = e.xy;
     float reach = length(towards);
@@ -241,8 +235,6 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, ve
                              m + spread_across, m - spread_across);
     float sun_share = diffuse_correction(to_tangent(L.sun_direction, s), e, lod);
     float moon_share = diffuse_correction(to_tangent(L.moon_direction, s), e, lod);
-    vec3 sum = vec3(0.0);
-    vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
     for (int i = 0; i < 5; ++i) {
         vec2 p = points[i];
         float len2 = dot(p, p);
@@ -264,11 +256,46 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, ve
                                                       L.moon_radiance);
         }
         direct += sunlit;
-        float weight = i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE);
+        float weight = share * (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE));
         sum += weight * direct;
         float luminance = dot(direct, LUMINANCE_WEIGHTS);
         moments += weight * vec3(luminance, luminance * luminance,
                                  dot(sunlit, LUMINANCE_WEIGHTS));
+    }
+}
+
+// The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
+// their squares), as the grains themselves give it when each is resolved: at the mean normal
+// and four more whose nx, ny hold that mean and the variance along two axes exactly. Unit
+// normals rather than slopes: bounded, and the cosine of the light is linear in them. The axes
+// are the eye's azimuth and its perpendicular, since what is not linear in the normal (a side
+// turning away from the eye) depends on the eye: fixed texture axes would make the average
+// jump where the eye's azimuth crosses them. The same average at every scale, so that the far
+// range's diffuse light is the close range's: the five's light is corrected by what they
+// miss of the grains' own, as the footprint's level `lod` grows to hold whole grains
+// (diffuse_correction). With `ripples`, the ripples too fine for the pixel (s.unresolved) tilt
+// the footprint's grains either way along the ripples' axis: the five are taken at both tilts,
+// which hold the ripples' variance as the five hold the grains' (the far range; close up the
+// footprint resolves the ripples). `spread`: x the variance of the sun's and the moon's
+// luminance over the five (their light's spread across the footprint), y the sun's mean
+// luminance.
+vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, vec3 v,
+                            Lighting L, bool ripples, out vec2 spread) {
+    vec2 m = normals.xy;
+    vec2 variance = max(normals.zw - m * m, 0.0);
+    vec3 sum = vec3(0.0);
+    vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
+    int tilts = ripples && dot(s.unresolved, s.unresolved) > 1e-8 ? 2 : 1;
+    for (int j = 0; j < 2; ++j) {
+        if (j >= tilts) break;
+        // Each tilt turns the footprint as a ripple's side does (its slope the deviation either
+        // way), bent to face the eye as the resolved ripples are (rippled_point).
+        SurfacePoint t = s;
+        if (tilts == 2) {
+            vec2 slope = j == 0 ? s.unresolved : -s.unresolved;
+            t = turned_to(s, to_world(vec3(-slope, 1.0), s), v);
+        }
+        five_normals_light(kd, m, variance, lod, t, v, L, 1.0 / float(tilts), sum, moments);
     }
     spread = vec2(max(moments.y - moments.x * moments.x, 0.0), moments.z);
     // The sky's light is linear in the normal, and the light through grain edges does not
@@ -375,7 +402,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
         c.glint = sand_specular(densities, h[0], h[1], L);
     }
     vec2 spread;
-    c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, spread) + c.glint;
+    c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, false, spread) + c.glint;
     // Where the relief is not drawn, the grains' shadows are not either: of the sun's mean
     // light m on the footprint, a share v (the mean visibility) of its grains is lit by m / v
     // and the rest by none, a variance of m²(1 − v)/v; none of it where the relief is drawn.
@@ -405,7 +432,7 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     bool copies = u_tile_variation != 0;
     if (copies) normals = copies_normal_moments(normals);
     vec2 spread;  // not written far away (shade_sand): the ripples' slopes vary there instead
-    return filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, spread)
+    return filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, true, spread)
          + sand_specular(tile_factors(h0, h1, copies), h0, h1, L);
 }
 

@@ -53,6 +53,7 @@ void main() {
     s.tangent = normalize(v_tangent - s.normal * dot(s.normal, v_tangent));
     s.bitangent = cross(s.tangent, s.normal);
     s.uv = v_uv;
+    s.unresolved = vec2(0.0);
     float spread;
     vec3 radiance = shade_sand(s, shadowed(scene_lighting(u_eye), v_world, s.normal), u_mode,
                                spread);

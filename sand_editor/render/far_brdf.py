@@ -52,6 +52,13 @@ _FLOOR_SCALE, _FLOOR_POWER = 1.94208, 1.85432
 SPREAD_SCALE, SPREAD_OFFSET = 4.50996, 0.113706
 C_OFFSET = 0.249978
 SINGLE_WEIGHT, MULTIPLE_WEIGHT = 0.995917, 0.0684744
+# The mean square of the ripple profile's slope (sand_far.glsl's ripples_at, in units of its
+# steepest) against its asymmetry s: 0.5 (1 + s² (A + B s)) / (1 + s)², fitted to
+# ripple_mean_square over 0 ≤ s ≤ 1.
+RIPPLE_MEAN_SQUARE_FIT = (0.195, 0.19)
+# The largest deviation of slope the ripples too fine for a pixel hand to the diffuse light as
+# two tilts (sand_far.glsl).
+RIPPLE_UNRESOLVED_MAX = 0.3
 # What shaders/sand_surface.glsl and sand_far.glsl are compiled with: these facts live here.
 SHADER_DEFINES = {
     name: repr(float(value))
@@ -67,8 +74,32 @@ SHADER_DEFINES = {
         "DEON_C_OFFSET": C_OFFSET,
         "DEON_SINGLE": SINGLE_WEIGHT,
         "DEON_MULTIPLE": MULTIPLE_WEIGHT,
+        "RIPPLE_MEAN_SQUARE_A": RIPPLE_MEAN_SQUARE_FIT[0],
+        "RIPPLE_MEAN_SQUARE_B": RIPPLE_MEAN_SQUARE_FIT[1],
+        "RIPPLE_UNRESOLVED_MAX": RIPPLE_UNRESOLVED_MAX,
     }.items()
 }
+
+
+def ripple_slope(phase, sharp):
+    """The ripple profile's slope at ``phase`` (radians) for asymmetry ``sharp``, in units of
+    its steepest (sand_far.glsl's ripples_at): the height sin(t + s sin t) differentiated."""
+    phase = np.asarray(phase, dtype=np.float64)
+    return np.cos(phase + sharp * np.sin(phase)) * (1.0 + sharp * np.cos(phase)) / (1.0 + sharp)
+
+
+def ripple_mean_square(sharp, steps: int = 4096) -> float:
+    """The mean square of the ripple profile's slope over a period (exact for its harmonics
+    below ``steps``)."""
+    phase = 2.0 * np.pi * np.arange(steps) / steps
+    return float(np.mean(ripple_slope(phase, sharp) ** 2))
+
+
+def ripple_mean_square_fit(sharp):
+    """The shaders' fit of ripple_mean_square (RIPPLE_MEAN_SQUARE_FIT)."""
+    a, b = RIPPLE_MEAN_SQUARE_FIT
+    sharp = np.asarray(sharp, dtype=np.float64)
+    return 0.5 * (1.0 + sharp**2 * (a + b * sharp)) / (1.0 + sharp) ** 2
 
 
 def sphere_albedo_terms(kd):
