@@ -273,19 +273,18 @@ void five_normals_light(vec3 kd, vec2 m, vec2 variance, float lod, SurfacePoint 
 // jump where the eye's azimuth crosses them. The same average at every scale, so that the far
 // range's diffuse light is the close range's: the five's light is corrected by what they
 // miss of the grains' own, as the footprint's level `lod` grows to hold whole grains
-// (diffuse_correction). With `ripples`, the ripples too fine for the pixel (s.unresolved) tilt
-// the footprint's grains either way along the ripples' axis: the five are taken at both tilts,
-// which hold the ripples' variance as the five hold the grains' (the far range; close up the
-// footprint resolves the ripples). `spread`: x the variance of the sun's and the moon's
-// luminance over the five (their light's spread across the footprint), y the sun's mean
-// luminance.
+// (diffuse_correction). The ripples too fine for the pixel (s.unresolved) tilt the footprint's
+// grains either way along the ripples' axis: the five are taken at both tilts, which hold the
+// ripples' variance as the five hold the grains', in both ranges alike (the far range is the
+// close range's limit). `spread`: x the variance of the sun's and the moon's luminance over
+// the five (their light's spread across the footprint), y the sun's mean luminance.
 vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, vec3 v,
-                            Lighting L, bool ripples, out vec2 spread) {
+                            Lighting L, out vec2 spread) {
     vec2 m = normals.xy;
     vec2 variance = max(normals.zw - m * m, 0.0);
     vec3 sum = vec3(0.0);
     vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
-    int tilts = ripples && dot(s.unresolved, s.unresolved) > 1e-8 ? 2 : 1;
+    int tilts = dot(s.unresolved, s.unresolved) > 1e-8 ? 2 : 1;
     for (int j = 0; j < 2; ++j) {
         if (j >= tilts) break;
         // Each tilt turns the footprint as a ripple's side does (its slope the deviation either
@@ -402,7 +401,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
         c.glint = sand_specular(densities, h[0], h[1], L);
     }
     vec2 spread;
-    c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, false, spread) + c.glint;
+    c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, spread) + c.glint;
     // Where the relief is not drawn, the grains' shadows are not either: of the sun's mean
     // light m on the footprint, a share v (the mean visibility) of its grains is lit by m / v
     // and the rest by none, a variance of m²(1 − v)/v; none of it where the relief is drawn.
@@ -432,7 +431,7 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     bool copies = u_tile_variation != 0;
     if (copies) normals = copies_normal_moments(normals);
     vec2 spread;  // not written far away (shade_sand): the ripples' slopes vary there instead
-    return filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, true, spread)
+    return filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, spread)
          + sand_specular(tile_factors(h0, h1, copies), h0, h1, L);
 }
 

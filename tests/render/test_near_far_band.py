@@ -38,3 +38,19 @@ def test_no_row_of_the_full_frame_leaves_its_close_and_far_light(renderer, gl_cl
     rows = band.measure(r, preset, band.DISTANCES)
     worst = max(rows, key=lambda row: row["excess"])
     assert worst["excess"] <= band.TOLERANCE, worst
+
+
+@pytest.mark.parametrize("name", band.PRESETS)
+def test_close_and_far_hold_the_same_light_where_the_ripples_are_below_the_pixel(
+    renderer, gl_clean, name
+):
+    """The far range is the close range's limit, ripples included: at 10–100 m, 16:30 and noon,
+    where the ripples lie below the pixel and hand their slopes to the diffuse light, the close
+    and the far frames' ground light agree within 1 % (measured at most 0.4 %; 4.4 % with only
+    the far range taking the ripples' slopes)."""
+    r, material = renderer
+    preset = Preset.load(bundled_preset(name))
+    material.update(preset)
+    r.set_material(material)
+    for row in band.measure(r, preset, (10.0, 30.0, 100.0)):
+        assert row["close_over_far"] == pytest.approx(1.0, abs=0.01), row
