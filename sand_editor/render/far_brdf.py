@@ -59,6 +59,8 @@ RIPPLE_MEAN_SQUARE_FIT = (0.195, 0.19)
 # The largest deviation of slope the ripples too fine for a pixel hand to the diffuse light as
 # two tilts (sand_far.glsl).
 RIPPLE_UNRESOLVED_MAX = 0.3
+# ... and the least: two tilts of a smaller deviation σ change the light by under σ²/2 (0.1 %).
+RIPPLE_UNRESOLVED_LEAST = 0.05
 # What shaders/sand_surface.glsl and sand_far.glsl are compiled with: these facts live here.
 SHADER_DEFINES = {
     name: repr(float(value))
@@ -77,6 +79,7 @@ SHADER_DEFINES = {
         "RIPPLE_MEAN_SQUARE_A": RIPPLE_MEAN_SQUARE_FIT[0],
         "RIPPLE_MEAN_SQUARE_B": RIPPLE_MEAN_SQUARE_FIT[1],
         "RIPPLE_UNRESOLVED_MAX": RIPPLE_UNRESOLVED_MAX,
+        "RIPPLE_UNRESOLVED_LEAST": RIPPLE_UNRESOLVED_LEAST,
     }.items()
 }
 
