@@ -13,12 +13,18 @@ uniform vec3 u_sphere_c;
 uniform vec3 u_sphere_floor;
 uniform vec3 u_sphere_inverse_albedo;  // 1 / kd̄
 
-vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v) {
+// The spheres' single-scattering phase for light along l seen along v: it does not depend on
+// the normal, so the five normals' light takes it once per light.
+float sphere_phase(vec3 l, vec3 v) {
+    float u = clamp(-dot(l, v), -1.0, 1.0);
+    return 2.0 * (sqrt(max(1.0 - u * u, 0.0)) - u * acos(u)) / (3.0 * PI * PI);
+}
+
+// `phase`: sphere_phase(l, v).
+vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v, float phase) {
     float ui = dot(n, l), uo = dot(n, v);
     if (ui <= 0.0 || uo <= 0.0) return vec3(0.0);
     float cos_io = dot(l, v);
-    float u = clamp(-cos_io, -1.0, 1.0);
-    float phase = 2.0 * (sqrt(max(1.0 - u * u, 0.0)) - u * acos(u)) / (3.0 * PI * PI);
     float single = phase / max(ui + uo, 1e-4);
     float s = sqrt(max((1.0 - ui * ui) * (1.0 - uo * uo), 0.0));
     // Relative azimuth from cos(io) = ui·uo + s·cos φ; at s → 0 the azimuth is moot.

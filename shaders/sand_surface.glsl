@@ -173,9 +173,10 @@ void footprint_surface(Footprint f, Taps t, out vec3 albedo, out vec2 slope, out
 float subsurface_share() { return clamp(u_scattering * u_sss, 0.0, 1.0); }
 float subsurface_transmittance() { return exp(-u_absorption * u_sss); }
 
-vec3 sand_diffuse(vec3 kd, vec3 n, vec3 l, vec3 v, vec3 irradiance) {
+// `phase`: sphere_phase(l, v).
+vec3 sand_diffuse(vec3 kd, vec3 n, vec3 l, vec3 v, vec3 irradiance, float phase) {
     float fs = subsurface_share();
-    vec3 per_albedo = sphere_brdf_per_albedo(n, l, v);
+    vec3 per_albedo = sphere_brdf_per_albedo(n, l, v, phase);
     vec3 direct = kd * ((1.0 - fs) * per_albedo * max(dot(n, l), 0.0)
                         + fs * subsurface_transmittance() / PI);
     return direct * irradiance;
@@ -236,6 +237,9 @@ void five_normals_light(vec3 kd, vec2 m, vec2 variance, float lod, SurfacePoint 
     float sun_share = diffuse_correction(to_tangent(L.sun_direction, s), e, lod);
     float moon_share = L.moon_radiance != vec3(0.0)
         ? diffuse_correction(to_tangent(L.moon_direction, s), e, lod) : 1.0;
+    // The grains' phase function depends on the light and the eye alone: once, not per normal.
+    float sun_phase = sphere_phase(L.sun_direction, v);
+    float moon_phase = sphere_phase(L.moon_direction, v);
     for (int i = 0; i < 5; ++i) {
         vec2 p = points[i];
         float len2 = dot(p, p);
@@ -250,11 +254,12 @@ void five_normals_light(vec3 kd, vec2 m, vec2 variance, float lod, SurfacePoint 
         vec3 sunlit = vec3(0.0), direct = vec3(0.0);
         // Lights that are off (below the horizon) are skipped: the same branch for every pixel.
         if (L.sun_radiance != vec3(0.0)) {
-            sunlit = seen * sun_share * sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance);
+            sunlit = seen * sun_share * sand_diffuse(kd, n, L.sun_direction, v, L.sun_radiance,
+                                                     sun_phase);
         }
         if (L.moon_radiance != vec3(0.0)) {
             direct = seen * moon_share * sand_diffuse(kd, n, L.moon_direction, v,
-                                                      L.moon_radiance);
+                                                      L.moon_radiance, moon_phase);
         }
         direct += sunlit;
         float weight = share * (i == 0 ? DIFFUSE_CENTRE : 0.25 * (1.0 - DIFFUSE_CENTRE));
