@@ -276,6 +276,8 @@ class RenderWorker:
         if end == job.size[1]:
             viewport = (0, 0, *job.size)
             scene = gathered.scene()
+        elif samples == 1:
+            scene = None  # the band's own light, still in the scene target
         else:
             scene = gathered.scene(first, end)
         timings = self.renderer.resolve_light(target, viewport, request, scene)

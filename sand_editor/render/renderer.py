@@ -263,14 +263,20 @@ class SandRenderer:
         return np.frombuffer(data, np.float16).reshape(height, width, 4)
 
     def resolve_light(
-        self, target: moderngl.Framebuffer, viewport, request: FrameRequest, scene: np.ndarray
+        self,
+        target: moderngl.Framebuffer,
+        viewport,
+        request: FrameRequest,
+        scene: np.ndarray | None,
     ) -> dict:
         """Bloom, expose and tone-map ``scene`` (as ``draw_light`` gives it, the viewport's
-        size) into ``viewport`` of ``target``, as ``render`` does its frame's light; the
-        exposure is metered on it unless the request fixes it."""
+        size; None: the light last drawn, still in the scene target) into ``viewport`` of
+        ``target``, as ``render`` does its frame's light; the exposure is metered on it unless
+        the request fixes it."""
         start = time.perf_counter()
-        self.post.resize(viewport[2], viewport[3])
-        self.post.scene_texture.write(np.ascontiguousarray(scene, np.float16).tobytes())
+        if scene is not None:
+            self.post.resize(viewport[2], viewport[3])
+            self.post.scene_texture.write(np.ascontiguousarray(scene, np.float16).tobytes())
         times = {"shadows_ms": 0.0, "sky_ms": 0.0, "surface_ms": 0.0}
         return self._resolve(target, viewport, request, times, start)
 
