@@ -279,12 +279,17 @@ def test_links_and_folders_are_refused_and_what_a_link_names_is_untouched(refere
 
 # The reader: read_shared many times, counting what each read gave; any other exception, or a
 # signal, ends it with a status that is not 0.
+# At least `reads` reads, and on until both a whole tile and a refusal were met or two minutes
+# passed: on a loaded machine the writer thread may sleep through a few thousand reads.
 _READER = """
-import collections, json, sys
+import collections, json, sys, time
 from sand_editor.generator.shared import read_shared
 name, size, reads = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 seen = collections.Counter()
-for _ in range(reads):
+deadline = time.monotonic() + 120
+while sum(seen.values()) < reads or (
+    (seen["tile"] == 0 or len(seen) < 2) and time.monotonic() < deadline
+):
     try:
         read_shared(name, size, None)
         seen["tile"] += 1
@@ -303,8 +308,8 @@ _RACE_MESSAGES = re.compile(
 @needs_dev_shm
 def test_a_segment_shrinking_while_it_is_read_gives_an_error_never_a_signal(reference_tile):
     """A thread here truncates the segment and writes it back again and again while another
-    process reads it 3000 times. A reader copying a mapping died of SIGBUS (status -7) within
-    a few dozen reads; reading the file, a shrink is a short read: one ``ValueError``."""
+    process reads it 3000 times or more. A reader copying a mapping died of SIGBUS (status -7)
+    within a few dozen reads; reading the file, a shrink is a short read: one ``ValueError``."""
     data = _tile_bytes(reference_tile)
     reads = 3000
     with _segment(data) as name:
@@ -338,7 +343,7 @@ def test_a_segment_shrinking_while_it_is_read_gives_an_error_never_a_signal(refe
         read_shared(name, SIZE, None)  # written back whole: a tile again
     assert result.returncode == 0, f"status {result.returncode}: {result.stderr[-2000:]}"
     seen = json.loads(result.stdout)
-    assert sum(seen.values()) == reads
+    assert sum(seen.values()) >= reads
     refusals = {message: n for message, n in seen.items() if message != "tile"}
     assert all(_RACE_MESSAGES.fullmatch(m) for m in refusals), refusals
     assert cycles and cycles[0] > 100, "the segment hardly changed while it was read"
