@@ -45,6 +45,9 @@ vec3 sphere_brdf_per_albedo(vec3 n, vec3 l, vec3 v, float phase) {
 const float RIPPLE_BEND = 0.6;
 
 uniform int u_sharp_ripples;  // 1: ripples filtered along the footprint (below); 0: isotropically
+// 1: each sample's ripples as they are at its centre, unfiltered: what a supersampled truth
+// averages; 0 (as every frame draws): filtered over the footprint, below.
+uniform int u_unfiltered_ripples;
 uniform float u_no_ripples;   // 0 on the dunes; 1 on objects (a tray, a sphere): no wind ripples
 
 // Wind ripples, made where they are seen rather than read from a tile, so they never repeat.
@@ -63,10 +66,9 @@ uniform float u_no_ripples;   // 0 on the dunes; 1 on objects (a tray, a sphere)
 // the ripples two tilts hold their slopes' light within 6 % where the mean slope alone misses
 // it by up to half (test_ripple_field.py). Its variance is handed over as (1 − kept)² of it,
 // in full only where the ripples lie well below the pixel: where the footprint spans about a
-// ripple its mean slope still follows it, and two tilts about that darkened the frames; and
-// at most RIPPLE_UNRESOLVED_MAX of slope (far_brdf.py), as tilts steeper than that, turned
-// from the eye and bent back to it, drew strong ripples' frames farther from the 8×8
-// supersampled ones in some light (bench depth's view, ripple strength 0.3 and 1, at 07:00).
+// ripple its mean slope still follows it, and two tilts about that darkened the frames. It is
+// not capped: strong ripples' steep slopes keep their light too (against frames supersampled
+// with the ripples unfiltered, u_unfiltered_ripples: a truth that does not hold this filter).
 const float RIPPLE_WAVELENGTH = 0.09;  // metres
 const float RIPPLE_SHARPNESS = 0.5;    // the profile's asymmetry on gentle ground (0: a sine)
 const float RIPPLE_STEEP_SHARPNESS = 0.9;
@@ -143,7 +145,7 @@ vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_gra
     // pixel: along each of its axes, or (isotropic, as mip mapping filters) the longer one in
     // both.
     float gx = k * dot(along, dx), gy = k * dot(along, dy);
-    float spread2 = RIPPLE_FOOTPRINT * (u_sharp_ripples != 0
+    float spread2 = u_unfiltered_ripples != 0 ? 0.0 : RIPPLE_FOOTPRINT * (u_sharp_ripples != 0
         ? gx * gx + gy * gy
         : 2.0 * k * k * dot(along, along) * max(dot(dx, dx), dot(dy, dy)));
     float keep = exp(-0.5 * spread2);
@@ -177,8 +179,6 @@ vec3 rippled_normal(SurfacePoint s, out vec2 unresolved) {
                             RIPPLE_BEND * (transpose(frame) * height_grad), lost);
     vec2 grad = frame * slope * (1.0 - u_no_ripples);
     unresolved = RIPPLE_SLOPE_GAIN * u_ripple_strength * (1.0 - u_no_ripples) * (frame * lost);
-    float deviation = length(unresolved);
-    if (deviation > RIPPLE_UNRESOLVED_MAX) unresolved *= RIPPLE_UNRESOLVED_MAX / deviation;
     vec2 at = s.uv * 4.0;
     vec2 detail = textureGrad(u_detail, at, footprint_dx(at), footprint_dy(at)).xy;
     grad += detail * (u_detail_strength / max(u_ripple_strength, 1e-3));

@@ -230,12 +230,12 @@ vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1, float widen) {
                 h1.valid ? mirror_density(m, h1.slope, h1.variance) : 0.0);
 }
 
-// The whole tile's densities: its top mip level, the distribution far away. Where the tile is
+// The whole tile's distribution of slopes: its top mip level, far away. Where the tile is
 // laid as turned and mirrored copies (``copies``, tile_variation.glsl), the eight symmetries of
 // the square come equally often: the distribution far away is their mixture, whose moments
 // are the tile's with the means of x, y and x·y gone and x², y² sharing their sum (|b|², and
 // so the hole moment, is unchanged).
-vec2 tile_factors(HalfVector h0, HalfVector h1, bool copies) {
+SlopeMoments tile_moments(bool copies) {
     vec2 centre = vec2(0.5);
     vec4 glint = textureLod(u_glint_moments, centre, u_max_lod);
     vec4 spread = textureLod(u_spread_moments, centre, u_max_lod);
@@ -243,7 +243,11 @@ vec2 tile_factors(HalfVector h0, HalfVector h1, bool copies) {
         glint.yzw = vec3(0.0);
         spread.xy = vec2(0.5 * (spread.x + spread.y));
     }
-    SlopeMoments m = slope_moments(glint, spread, textureLod(u_hole_moments, centre, u_max_lod).x);
+    return slope_moments(glint, spread, textureLod(u_hole_moments, centre, u_max_lod).x);
+}
+
+// The densities of mirroring slopes of both lights in a distribution of slopes m.
+vec2 moments_factors(SlopeMoments m, HalfVector h0, HalfVector h1) {
     return vec2(h0.valid ? mirror_density(m, h0.slope, h0.variance) : 0.0,
                 h1.valid ? mirror_density(m, h1.slope, h1.variance) : 0.0);
 }

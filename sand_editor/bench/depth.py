@@ -3,22 +3,24 @@ distance, with each depth feature on and off — speed against error.
 
 Each view (paper-default, 16:30, pitch 15°, the issue's 320×180) is rendered at its size and at
 8× its size, the latter averaged down 8×8 in linear light and encoded again: the truth a frame
-of that size should show. FLIP (NVIDIA's perceptual metric, PyPI ``flip-evaluator``) compares
-the two over the ground (the frame's lower half, below any horizon). One fixed exposure, from
-the light, serves both, so the metering of frames of different sizes does not enter. The
-features: the grains' relief (``SandRenderer.relief``), the ripples filtered along each
-pixel's footprint (``SandRenderer.sharp_ripples``), the grain textures read in taps along a
-grazing footprint (``SandRenderer.anisotropic``) and the shadows (``SandRenderer.shadows``);
-each row gives the frame with all of them, and without one. Beside them, the FLIP of the same
-renderer supersampled 2×2 and 4×4 (SUPERSAMPLED_FLOORS): what four and sixteen times the work
-per pixel would buy. And the truth's own 64 samples with their light averaged before the tone
-curve rather than after it, as a camera's pixel gathers light (and ``render --samples``, and a
+of that size should show. The truth's samples draw the ripples unfiltered (each as it is at the
+sample's centre): a truth drawn with the ripples' filter would hold what it measures. FLIP
+(NVIDIA's perceptual metric, PyPI ``flip-evaluator``) compares the two over the ground (the
+frame's lower half, below any horizon). One fixed exposure, from the light, serves both, so the
+metering of frames of different sizes does not enter. The features: the grains' relief
+(``SandRenderer.relief``), the ripples filtered along each pixel's footprint
+(``SandRenderer.sharp_ripples``), the grain textures read in taps along a grazing footprint
+(``SandRenderer.anisotropic``) and the shadows (``SandRenderer.shadows``); each row gives the
+frame with all of them, and without one. Beside them, the FLIP of the same renderer
+supersampled 2×2 and 4×4 (SUPERSAMPLED_FLOORS): what four and sixteen times the work per pixel
+would buy. And the truth's own 64 samples with their light averaged before the tone curve
+rather than after it, as a camera's pixel gathers light (and ``render --samples``, and a
 multisampled frame resolved in light): how far the truth itself moves with that choice, which
 up close, where sparkles far brighter than white lie within a pixel, is the larger part of
-every frame's FLIP. Every timed frame's clock moves on
-by a minute, as in a time-lapse, so that each frame draws one of the four shadow maps again (a
-still view draws none, a first frame all four).
-Up close the sparkles are stochastic per pixel by design: their FLIP is reported, not a target.
+every frame's FLIP. Every timed frame's clock moves on by a minute, as in a time-lapse, so that
+each frame draws one of the four shadow maps again (a still view draws none, a first frame all
+four). Up close the sparkles are stochastic per pixel by design: their FLIP is reported, not a
+target.
 
 The flicker figure: the camera moves sideways by a quarter of a pixel (at the view's distance)
 per frame, PAN_FRAMES frames; the mean change of a ground pixel between frames, over the same
@@ -101,13 +103,15 @@ class Views:
         size: tuple[int, int],
         later_h: float = 0.0,
         pan_px: float = 0.0,
+        filter_ripples: bool = True,
         **features,
     ) -> tuple[np.ndarray, float]:
         """The view at ``distance`` drawn at ``size``, ``later_h`` hours after the bench's time,
         its camera moved sideways by ``pan_px`` of its pixels at that distance,
-        and the milliseconds it took."""
+        and the milliseconds it took. ``filter_ripples`` False: the truth's samples (below)."""
         for name in FEATURES:
             setattr(self.renderer, name, features.get(name, True))
+        self.renderer.filter_ripples = filter_ripples
         width, height = size
         camera = self.camera(distance, pan_px, size)
         sky = self.sky_at(TIME + later_h)
@@ -115,6 +119,15 @@ class Views:
         request = FrameRequest(camera, sky, "full", exposure=self.exposure)
         image = self.renderer.render_to_array(width, height, request)
         return image, (time.perf_counter() - start) * 1e3
+
+    def truth(self, distance: float, pan_px: float = 0.0, size=SIZE) -> np.ndarray:
+        """The view drawn SUPERSAMPLE× larger and averaged down, as sRGB floats: each of its
+        samples with the ripples as they are at its centre, so that the truth does not hold
+        the ripples' filter that it measures (that filter drawn at 8× still drew strong
+        ripples 0.1–0.3 FLIP from the same view at 16× or 32×, which agree within 0.01)."""
+        large = (size[0] * SUPERSAMPLE, size[1] * SUPERSAMPLE)
+        big = self.frame(distance, large, pan_px=pan_px * SUPERSAMPLE, filter_ripples=False)[0]
+        return supersampled(big, SUPERSAMPLE)
 
     def camera(self, distance: float, pan_px: float = 0.0, size=SIZE):
         """The bench's camera at ``distance``, moved right by ``pan_px`` pixels of a frame of
@@ -138,17 +151,14 @@ class Views:
         view = look_at_matrix(eye, eye + distance * forward)
         return Camera(view, camera.projection, eye)
 
-    def flicker(self, distance: float, size=SIZE, supersample: int = SUPERSAMPLE) -> dict:
+    def flicker(self, distance: float, size=SIZE) -> dict:
         """Mean change of a ground pixel between frames of a quarter-pixel pan, for frames of
-        ``size`` and the same frames supersampled, and their ratio."""
-        large = (size[0] * supersample, size[1] * supersample)
+        ``size`` and their truths, and their ratio."""
         ours, truth = [], []
         for k in range(PAN_FRAMES):
             pan = k * PAN_STEP_PX
             ours.append(self.frame(distance, size, pan_px=pan)[0] / 255.0)
-            # The large frame's pixels are a supersample-th of ours: the same motion is more.
-            big = self.frame(distance, large, pan_px=pan * supersample)[0]
-            truth.append(supersampled(big, supersample))
+            truth.append(self.truth(distance, pan, size))
         half = size[1] // 2
         change = [
             float(np.abs(np.diff(np.stack(f)[:, half:], axis=0)).mean()) for f in (ours, truth)
@@ -160,6 +170,7 @@ class Views:
         camera's pixel gathers it (``SandRenderer.render_still``, ``render --samples 8``)."""
         for name in FEATURES:
             setattr(self.renderer, name, True)
+        self.renderer.filter_ripples = False
         request = FrameRequest(self.camera(distance), self.sky_at(TIME), "full",
                                exposure=self.exposure)  # fmt: skip
         return self.renderer.render_still(*SIZE, request, SUPERSAMPLE)
@@ -185,8 +196,7 @@ def run(quick: bool = False) -> dict:
     rows = []
     try:
         for distance in QUICK_DISTANCES if quick else DISTANCES:
-            large = (SIZE[0] * SUPERSAMPLE, SIZE[1] * SUPERSAMPLE)
-            truth = supersampled(views.frame(distance, large)[0], SUPERSAMPLE)
+            truth = views.truth(distance)
             row = {"distance_m": distance}
             for label, features in [("all", {}), *((f"no_{f}", {f: False}) for f in FEATURES)]:
                 image, ms = views.timed(distance, **features)
@@ -208,7 +218,8 @@ def run(quick: bool = False) -> dict:
 
 def format_table(results: dict) -> str:
     lines = [
-        f"Depth: FLIP over the ground against the same renderer 8×8 supersampled, "
+        f"Depth: FLIP over the ground against the same renderer 8×8 supersampled (its "
+        f"ripples unfiltered), "
         f"{results['size'][0]}×{results['size'][1]}, 16:30, pitch 15; flicker: the mean "
         f"change between frames of a {PAN_STEP_PX}-pixel pan over the supersampled pan's; "
         f"{results['machine']['gl_renderer']}, {results['machine']['cpu_count']} CPUs",
@@ -246,9 +257,7 @@ def before_after(path: str, distances=(0.05, 10.0)) -> None:
         for row, distance in enumerate(distances):
             off = views.frame(distance, SIZE, **{name: False for name in FEATURES})[0]
             on = views.frame(distance, SIZE)[0]
-            large = (width * SUPERSAMPLE, height * SUPERSAMPLE)
-            truth = supersampled(views.frame(distance, large)[0], SUPERSAMPLE)
-            truth = (truth * 255.0 + 0.5).astype(np.uint8)
+            truth = (views.truth(distance) * 255.0 + 0.5).astype(np.uint8)
             for column, image in enumerate((off, on, truth)):
                 sheet.paste(Image.fromarray(image), (column * width, row * height))
     finally:

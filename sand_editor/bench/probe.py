@@ -82,6 +82,7 @@ class MaterialProbe:
         self.relief = False  # the grains' relief up close (u_relief, sand_relief.glsl)
         self.tile_variation = True  # the tile laid without a repeat (u_tile_variation)
         self.ripples = True  # the wind's ripples on the plane (u_no_ripples off)
+        self.filter_ripples = True  # False: unfiltered, for a supersampled truth (as the renderer)
         self.ground_truth_samples = 16  # K: the ground truth's K×K albedo and slope samples
         # The renderer's surface program, on a plane: normal +y, tangent +x, uv = world xz;
         # compiled with the benchmark's glint filters (SAND_PROBE), which production lacks.
@@ -144,6 +145,7 @@ class MaterialProbe:
                    "u_ground_truth_samples": int(self.ground_truth_samples),
                    "u_relief": int(self.relief),
                    "u_sharp_ripples": 1,  # the renderer's filtering of the ripples
+                   "u_unfiltered_ripples": int(not self.filter_ripples),
                    "u_anisotropic": 1,  # and of the grain textures
                    "u_tile_variation": int(self.tile_variation),
                    "u_footprint_scale": 1.0}  # fmt: skip

@@ -56,10 +56,8 @@ SINGLE_WEIGHT, MULTIPLE_WEIGHT = 0.995917, 0.0684744
 # steepest) against its asymmetry s: 0.5 (1 + s² (A + B s)) / (1 + s)², fitted to
 # ripple_mean_square over 0 ≤ s ≤ 1.
 RIPPLE_MEAN_SQUARE_FIT = (0.195, 0.19)
-# The largest deviation of slope the ripples too fine for a pixel hand to the diffuse light as
-# two tilts (sand_far.glsl).
-RIPPLE_UNRESOLVED_MAX = 0.3
-# ... and the least: two tilts of a smaller deviation σ change the light by under σ²/2 (0.1 %).
+# The least deviation of slope the ripples too fine for a pixel hand to the diffuse light as
+# two tilts (sand_far.glsl): two tilts of a smaller deviation σ change the light by under σ²/2.
 RIPPLE_UNRESOLVED_LEAST = 0.05
 # What shaders/sand_surface.glsl and sand_far.glsl are compiled with: these facts live here.
 SHADER_DEFINES = {
@@ -78,7 +76,6 @@ SHADER_DEFINES = {
         "DEON_MULTIPLE": MULTIPLE_WEIGHT,
         "RIPPLE_MEAN_SQUARE_A": RIPPLE_MEAN_SQUARE_FIT[0],
         "RIPPLE_MEAN_SQUARE_B": RIPPLE_MEAN_SQUARE_FIT[1],
-        "RIPPLE_UNRESOLVED_MAX": RIPPLE_UNRESOLVED_MAX,
         "RIPPLE_UNRESOLVED_LEAST": RIPPLE_UNRESOLVED_LEAST,
     }.items()
 }

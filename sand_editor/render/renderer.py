@@ -82,6 +82,9 @@ class SandRenderer:
         self.relief = True  # grains at their depth and self-shadowed up close (sand_relief.glsl)
         self.tile_variation = True  # the grain tile laid without a repeat (tile_variation.glsl)
         self.sharp_ripples = True  # ripples filtered along each pixel's footprint (sand_far.glsl)
+        # False: each sample's ripples unfiltered, as a supersampled truth averages them (the
+        # filter is what such a truth measures).
+        self.filter_ripples = True
         self.anisotropic = True  # grain textures read in taps along a grazing footprint
         self.shadows = True  # the sun and the moon cast shadows (render/shadows.py)
         # Each surface variant draws only the rings it can shade (off: both draw everything,
@@ -370,6 +373,7 @@ class SandRenderer:
             "u_footprint_scale": float(footprint_scale),
             "u_relief": int(self.relief),
             "u_sharp_ripples": int(self.sharp_ripples),
+            "u_unfiltered_ripples": int(not self.filter_ripples),
             "u_anisotropic": int(self.anisotropic),
             "u_tile_variation": int(self.tile_variation),
         }

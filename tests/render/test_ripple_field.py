@@ -31,9 +31,10 @@ def material(gl_ctx):
     material.release()
 
 
-def _far_frame(material, size, distance, pitch=15.0, target=(0.0, 0.0)) -> np.ndarray:
+def _far_frame(material, size, distance, pitch=15.0, target=(0.0, 0.0), filtered=True):
     probe = MaterialProbe(material, *size)
     try:
+        probe.filter_ripples = filtered
         probe.sun_direction = LOW_SUN
         camera = camera_at_distance(distance, pitch, size[0] / size[1], target_xz=target)
         image, _ = probe.render(camera, "far")
@@ -54,9 +55,11 @@ def test_the_ripples_never_repeat(material, gl_clean):
 
 
 def _against_truth(material, distance) -> tuple[float, float]:
-    """The frame's ground mean over its 8×8 supersampled truth's, and their relative RMS."""
+    """The frame's ground mean over its 8×8 supersampled truth's (its ripples unfiltered),
+    and their relative RMS."""
     small = _far_frame(material, SMALL, distance)
-    big = _far_frame(material, (SMALL[0] * SUPERSAMPLE, SMALL[1] * SUPERSAMPLE), distance)
+    large = (SMALL[0] * SUPERSAMPLE, SMALL[1] * SUPERSAMPLE)
+    big = _far_frame(material, large, distance, filtered=False)
     truth = big.reshape(SMALL[1], SUPERSAMPLE, SMALL[0], SUPERSAMPLE).mean(axis=(1, 3))
     ground = slice(SMALL[1] * 2 // 5, None)  # below the horizon, which is at 15° up
     small, truth = small[ground], truth[ground]
@@ -64,24 +67,36 @@ def _against_truth(material, distance) -> tuple[float, float]:
     return float(small.mean() / truth.mean()), error
 
 
-@pytest.mark.parametrize("name", ["paper-default", "black-volcanic", "pale-quartz", "red-desert"])
+# The black sand's light is mostly its glints: its frames stray farther per pixel (0.12 and 0.17;
+# at 30 m, 0.096 from a 24×24 truth, where the 8×8 truth itself is 0.065 from it).
+@pytest.mark.parametrize(
+    ("name", "most"),
+    [
+        ("paper-default", 0.06),
+        ("black-volcanic", 0.2),
+        ("pale-quartz", 0.06),
+        ("red-desert", 0.06),
+    ],  # fmt: skip
+)
 @pytest.mark.parametrize("distance", [30.0, 100.0])
-def test_far_ripples_match_their_supersampled_truth(gl_ctx, gl_clean, name, distance):
+def test_far_ripples_match_their_supersampled_truth(gl_ctx, gl_clean, name, most, distance):
     """Every shipped sand's ripples, a fraction of a pixel wide, are drawn as the 8×8
-    supersampled frame shows them at a low sun: the same light (measured within 1.6 %) and no
-    moiré (relative RMS at most 0.040)."""
+    supersampled frame (its ripples unfiltered) shows them under a low sun ahead: the same
+    light within 4.5 % and no moiré (relative RMS under 0.06, the black sand's 0.2). With the
+    glints shaded on the ripples' mean slope alone, the black sand's light was 28 % short (RMS
+    0.38), and paper-default's 6 % (RMS 0.10)."""
     material = SandMaterial(gl_ctx, 64)
     try:
         material.update(Preset.load(bundled_preset(name)).replace(**{"shading.detail_strength": 0}))
         ratio, error = _against_truth(material, distance)
     finally:
         material.release()
-    assert ratio == pytest.approx(1.0, abs=0.03)
-    assert error < 0.06, f"relative RMS {error:.3f} against the supersampled frame"
+    assert ratio == pytest.approx(1.0, abs=0.045)
+    assert error < most, f"relative RMS {error:.3f} against the supersampled frame"
 
 
 def test_strong_ripples_do_not_alias_far_away(material, gl_clean):
-    """Ripples of strength 0.3 at 30 m: relative RMS 0.12 against the supersampled frame (0.81
+    """Ripples of strength 0.3 at 30 m: relative RMS 0.16 against the supersampled frame (0.80
     with the ripples unfiltered, where moiré covers the ground)."""
     _, error = _against_truth(material, 30.0)
     assert error < 0.25, f"relative RMS {error:.3f} against the supersampled frame"
@@ -99,9 +114,8 @@ def test_the_shaders_mean_square_of_a_ripples_slope_is_the_profiles():
 @pytest.mark.parametrize("deviation", [0.1, 0.2, 0.3])
 def test_two_tilts_hold_a_ripples_light_where_its_mean_slope_does_not(deviation):
     """Under a sun along the ripples (5° to 70° up), the mean of the clamped cosine over a sine
-    ripple of slope deviation up to RIPPLE_UNRESOLVED_MAX: two tilts either side of the mean
-    hold it within 8 % (within 6 % from 10° up), the mean slope alone misses it by up to half."""
-    assert deviation <= far_brdf.RIPPLE_UNRESOLVED_MAX
+    ripple of slope deviation up to 0.3: two tilts either side of the mean hold it within 8 %
+    (within 6 % from 10° up), the mean slope alone misses it by up to half."""
     phase = 2.0 * np.pi * np.arange(4096) / 4096
     slopes = deviation * np.sqrt(2.0) * np.cos(phase)
     worst_tilts = worst_flat = 0.0
@@ -117,21 +131,38 @@ def test_two_tilts_hold_a_ripples_light_where_its_mean_slope_does_not(deviation)
     assert worst_tilts < 0.08 and worst_flat > 2.0 * worst_tilts, (worst_tilts, worst_flat)
 
 
-@pytest.mark.parametrize(("distance", "most"), [(30.0, 0.045), (100.0, 0.025)])
-def test_ripples_below_the_pixel_keep_their_light(gl_clean, distance, most):
+@pytest.mark.parametrize(
+    ("strength", "distance", "most", "light"),
+    [
+        (None, 30.0, 0.045, 0.02),
+        (None, 100.0, 0.045, 0.02),
+        (0.3, 30.0, 0.135, 0.06),
+        (0.3, 100.0, 0.145, 0.06),
+    ],
+)
+def test_ripples_below_the_pixel_keep_their_light(gl_clean, strength, distance, most, light):
     """Far away the ripples are a fraction of a pixel, but their slopes still turn the sand to
-    and from the sun: with their deviation handed to the diffuse light, the frame (bench depth's
-    view: paper-default, 16:30, pitch 15°) is within FLIP 0.045 at 30 m and 0.025 at 100 m of
-    the same view 8×8 supersampled (0.062 and 0.029 shading their mean slope alone)."""
-    from sand_editor.bench.depth import SIZE, SUPERSAMPLE, Views, flip_error, supersampled
+    and from the sun: with their deviation handed to the light, the frame (bench depth's view:
+    16:30, pitch 15°) is within FLIP 0.045 of the same view 8×8 supersampled with its ripples
+    unfiltered at 30 and 100 m for paper-default (0.036 and 0.037; 0.067 and 0.062 shading the
+    ripples' mean slope alone), its ground's light within 2 %. Strong ripples (0.3): FLIP 0.121
+    and 0.136, light 4 % and 5 % short; their deviation capped at a slope of 0.3, as it was,
+    0.157 and 0.142, and 11 % and 10 % too bright."""
+    from sand_editor.bench.depth import SIZE, Views, flip_error
+    from sand_editor.colour import srgb_to_linear
 
     views = Views(256)
     try:
-        frame = views.frame(distance, SIZE)[0] / 255.0
-        large = (SIZE[0] * SUPERSAMPLE, SIZE[1] * SUPERSAMPLE)
-        truth = supersampled(views.frame(distance, large)[0], SUPERSAMPLE)
+        if strength is not None:
+            preset = Preset.load(bundled_preset("paper-default"))
+            views.material.update(preset.replace(**{"shading.ripple_strength": strength}))
+        frame = views.frame(distance, SIZE)[0][..., :3] / 255.0
+        truth = views.truth(distance)[..., :3]
     finally:
         views.release()
     assert np.isfinite(frame).all()
     error = flip_error(truth, frame)
     assert error <= most, f"FLIP {error:.3f} at {distance} m"
+    ground = slice(SIZE[1] // 2, None)
+    ratio = srgb_to_linear(frame[ground]).mean() / srgb_to_linear(truth[ground]).mean()
+    assert ratio == pytest.approx(1.0, abs=light), f"the ground's light {ratio:.3f} of the truth's"
