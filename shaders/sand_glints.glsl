@@ -219,6 +219,12 @@ vec2 densities(HalfVector h0, HalfVector h1, vec2 b) {
                 h1.valid ? facet_density(b, h1.slope, h1.variance) : 0.0);
 }
 
+// The densities of mirroring slopes of both lights in a distribution of slopes m.
+vec2 moments_factors(SlopeMoments m, HalfVector h0, HalfVector h1) {
+    return vec2(h0.valid ? mirror_density(m, h0.slope, h0.variance) : 0.0,
+                h1.valid ? mirror_density(m, h1.slope, h1.variance) : 0.0);
+}
+
 // The densities of mirroring slopes D of two lights over the footprint widened by `widen`
 // pixels, from one trilinear fetch per moment texture.
 vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1, float widen) {
@@ -226,8 +232,7 @@ vec2 expected_factors(Footprint f, HalfVector h0, HalfVector h1, float widen) {
     SlopeMoments m = slope_moments(textureGrad(u_glint_moments, f.tc, gx, gy),
                                    textureGrad(u_spread_moments, f.tc, gx, gy),
                                    textureGrad(u_hole_moments, f.tc, gx, gy).x);
-    return vec2(h0.valid ? mirror_density(m, h0.slope, h0.variance) : 0.0,
-                h1.valid ? mirror_density(m, h1.slope, h1.variance) : 0.0);
+    return moments_factors(m, h0, h1);
 }
 
 // The whole tile's distribution of slopes: its top mip level, far away. Where the tile is
@@ -244,12 +249,6 @@ SlopeMoments tile_moments(bool copies) {
         spread.xy = vec2(0.5 * (spread.x + spread.y));
     }
     return slope_moments(glint, spread, textureLod(u_hole_moments, centre, u_max_lod).x);
-}
-
-// The densities of mirroring slopes of both lights in a distribution of slopes m.
-vec2 moments_factors(SlopeMoments m, HalfVector h0, HalfVector h1) {
-    return vec2(h0.valid ? mirror_density(m, h0.slope, h0.variance) : 0.0,
-                h1.valid ? mirror_density(m, h1.slope, h1.variance) : 0.0);
 }
 
 // The chance that one facet mirrors a light's disc, from a density of mirroring slopes.

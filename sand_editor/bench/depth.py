@@ -124,7 +124,7 @@ class Views:
         """The view drawn SUPERSAMPLE× larger and averaged down, as sRGB floats: each of its
         samples with the ripples as they are at its centre, so that the truth does not hold
         the ripples' filter that it measures (that filter drawn at 8× still drew strong
-        ripples 0.1–0.3 FLIP from the same view at 16× or 32×, which agree within 0.01)."""
+        ripples 0.07–0.27 FLIP from the same view at 16× or 32×, which agree within 0.007)."""
         large = (size[0] * SUPERSAMPLE, size[1] * SUPERSAMPLE)
         big = self.frame(distance, large, pan_px=pan_px * SUPERSAMPLE, filter_ripples=False)[0]
         return supersampled(big, SUPERSAMPLE)
