@@ -279,11 +279,9 @@ int ripple_tilts(SurfacePoint s) {
     return dot(s.unresolved, s.unresolved) > least * least ? 2 : 1;
 }
 
-// Tilt j of `tilts`: the point turned as a ripple's side turns it (its slope the deviation
-// either way), bent to face the eye as the resolved ripples are (rippled_point).
-SurfacePoint ripple_tilt(SurfacePoint s, vec3 v, int j, int tilts) {
-    if (tilts < 2) return s;
-    vec2 slope = j == 0 ? s.unresolved : -s.unresolved;
+// The point turned as a ripple's side of tangent-space `slope` turns it, bent to face the eye
+// as the resolved ripples are (rippled_point).
+SurfacePoint ripple_tilted(SurfacePoint s, vec2 slope, vec3 v) {
     return turned_to(s, to_world(vec3(-slope, 1.0), s), v);
 }
 
@@ -310,7 +308,9 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, ve
     int tilts = ripple_tilts(s);
     for (int j = 0; j < 2; ++j) {
         if (j >= tilts) break;
-        SurfacePoint t = ripple_tilt(s, v, j, tilts);
+        // Each tilt: the deviation either way (no ?: on structures: WebGL refuses it).
+        SurfacePoint t = s;
+        if (tilts == 2) t = ripple_tilted(s, j == 0 ? s.unresolved : -s.unresolved, v);
         five_normals_light(kd, m, variance, lod, t, v, L, 1.0 / float(tilts), sum, moments);
     }
     spread = vec2(max(moments.y - moments.x * moments.x, 0.0), moments.z);
@@ -357,18 +357,16 @@ void lights_in_tangent(SurfacePoint s, Lighting L, inout Footprint f) {
 // under a low sun ahead came out 7 % too bright against frames supersampled 8×8 with the
 // ripples unfiltered (and shading the mean slope alone, 28 % too dark); so, within 4 %
 // (test_ripple_field.py). The diffuse light varies more gently in the slope: two tilts serve it.
-vec3 tile_specular(SurfacePoint s, Footprint f, Lighting L, vec3 v, bool copies,
-                   out vec3 untilted) {
+// h0, h1: the half vectors at the footprint's mean slope (half_vectors_at).
+vec3 tile_specular(SurfacePoint s, Footprint f, Lighting L, vec3 v, bool copies, HalfVector h0,
+                   HalfVector h1, out vec3 untilted) {
     SlopeMoments m = tile_moments(copies);
-    HalfVector h0, h1;
-    half_vectors_at(f, vec2(0.0), h0, h1);
     untilted = sand_specular(moments_factors(m, h0, h1), h0, h1, L);
     if (ripple_tilts(s) < 2) return untilted;
     vec3 sides = vec3(0.0);
     for (int j = 0; j < 2; ++j) {
         Footprint g = f;
-        vec2 slope = (j == 0 ? SQRT2 : -SQRT2) * s.unresolved;
-        lights_in_tangent(turned_to(s, to_world(vec3(-slope, 1.0), s), v), L, g);
+        lights_in_tangent(ripple_tilted(s, (j == 0 ? SQRT2 : -SQRT2) * s.unresolved, v), L, g);
         half_vectors_at(g, vec2(0.0), h0, h1);
         sides += sand_specular(moments_factors(m, h0, h1), h0, h1, L);
     }
@@ -381,10 +379,12 @@ vec3 tile_specular(SurfacePoint s, Footprint f, Lighting L, vec3 v, bool copies,
 // where they mirror more, the rest added evenly (no sparkle is drawn for the facets a tilt
 // turns to the light). The sparkles' expectation is the footprint's, which far from the eye,
 // where ripples lie below a pixel, is the tile's.
-vec3 glints_on_ripples(vec3 glint, SurfacePoint s, Footprint f, Lighting L, vec3 v) {
+// h0, h1: the half vectors the sparkles were drawn for.
+vec3 glints_on_ripples(vec3 glint, SurfacePoint s, Footprint f, Lighting L, vec3 v,
+                       HalfVector h0, HalfVector h1) {
     if (ripple_tilts(s) < 2) return glint;
     vec3 mean;
-    vec3 tilted = tile_specular(s, f, L, v, u_tile_variation != 0, mean);
+    vec3 tilted = tile_specular(s, f, L, v, u_tile_variation != 0, h0, h1, mean);
     vec3 share = mix(vec3(1.0), tilted / max(mean, vec3(1e-30)), greaterThan(mean, vec3(0.0)));
     return glint * min(share, vec3(1.0)) + max(tilted - mean, vec3(0.0));
 }
@@ -456,7 +456,8 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
             c.glint += e[i] * gain * lobe * h[i].cos_light * h[i].fresnel / f0;
         }
     } else {
-        c.glint = glints_on_ripples(sand_specular(densities, h[0], h[1], L), s, f, L, v);
+        c.glint = glints_on_ripples(sand_specular(densities, h[0], h[1], L), s, f, L, v, h[0],
+                                    h[1]);
     }
     vec2 spread;
     c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, spread) + c.glint;
@@ -487,9 +488,11 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     bool copies = u_tile_variation != 0;
     if (copies) normals = copies_normal_moments(normals);
     vec2 spread;  // not written far away (shade_sand): the ripples' slopes vary there instead
+    HalfVector h0, h1;
+    half_vectors_at(f, vec2(0.0), h0, h1);
     vec3 untilted;
     return filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, spread)
-         + tile_specular(s, f, L, v, copies, untilted);
+         + tile_specular(s, f, L, v, copies, h0, h1, untilted);
 }
 
 vec3 shade_lambert(SurfacePoint s, Lighting L) {
