@@ -380,10 +380,9 @@ def _spec(file: str, defines: Mapping[str, object] | None) -> tuple:
 
 def _compiled(ctx: moderngl.Context, vertex: tuple, fragment: tuple):
     """Compile a program of two shader files (name, defines); a compile error names the file
-    and line of each message in it."""
-    compiled_programs.add((_spec(*vertex), _spec(*fragment)))
+    and line of each message in it. Only a program that compiled is recorded."""
     try:
-        return ctx.program(
+        compiled = ctx.program(
             vertex_shader=shader_text(*vertex), fragment_shader=shader_text(*fragment)
         )
     except moderngl.Error as exc:
@@ -391,6 +390,8 @@ def _compiled(ctx: moderngl.Context, vertex: tuple, fragment: tuple):
         head, marker, tail = message.partition("fragment_shader\n")
         located = _located(head, *vertex) + marker + (_located(tail, *fragment) if marker else "")
         raise moderngl.Error(located) from None
+    compiled_programs.add((_spec(*vertex), _spec(*fragment)))
+    return compiled
 
 
 @contextmanager
