@@ -133,9 +133,13 @@ def test_the_draw_bound_is_the_normal_one_for_many_facets_and_wider_for_few():
 
 
 def test_no_close_frame_is_black_beside_its_far_frame(rows, explain):
+    # Even were every sparkle clipped away, the close frame keeps its diffuse light, which the
+    # display shows as at least that share to the display curve's elasticity (a sand of 45 %
+    # glint light, a few sparkles of it clipped at 0.3 m, displayed 45 % of its far frame).
     held = [row for row in rows if row["compared"] and _diffuse_led(row)]
     for row in held:
-        assert row["frame_close"] >= BLACK_SHARE * row["frame_far"], explain(row)
+        kept = (1.0 - row["glint_share"]) ** DISPLAY_ELASTICITY
+        assert row["frame_close"] >= BLACK_SHARE * kept * row["frame_far"], explain(row)
 
 
 def test_close_and_far_frames_look_the_same_where_glints_carry_little(rows, explain):
