@@ -4,7 +4,6 @@
 const float PI = 3.14159265358979;
 const float MAX_HALF = 60000.0;  // largest radiance written to half-float targets
 const float MAX_SPREAD = 100.0;  // largest spread of a pixel's light written (tone.glsl)
-const float SQRT2 = 1.41421356237310;
 
 // Integer hash (lowbias32, Chris Wellons): the same numbers on every GPU, and in numpy
 // (sand_editor/generator/noise.py mirrors it for the grains).

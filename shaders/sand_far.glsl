@@ -1,7 +1,6 @@
 // The sand's large-scale surface and diffuse BRDF: ripples on the macro normal and d'Eon's
 // Lambertian-sphere BRDF (included by sand_surface.glsl after its uniforms and helpers).
 
-const float RIPPLE_SLOPE_GAIN = 8.0; // ripple strength 1 means slopes 8× the map's
 
 // d'Eon (2021), the fitted form of the BRDF of a half space of Lambertian spheres, per unit
 // albedo at the tile's average albedo kd̄, every channel at once. What depends on kd̄ alone — c,
@@ -58,20 +57,23 @@ uniform float u_no_ripples;   // 0 on the dunes; 1 on objects (a tray, a sphere)
 // Everything is an analytic function of the phase, so the footprint's filtering is too: the
 // phase varies over the pixel by σ, and the ripple's slope is the footprint's mean, attenuated
 // by exp(−σ²/2), which fades ripples smaller than a pixel smoothly (no moiré at any distance).
-// The slopes the filter takes out still turn the sand to and from the light: their deviation
-// along the ripples' axis (`unresolved`) is handed to the diffuse light as two tilts either
-// side of the mean (filtered_diffuse_light), as LEAN and Toksvig mapping hand a filtered
-// normal map's variance to the BRDF, but along the one axis ripples tilt on (spread around the
-// normal, as those do, it left the far frames 2–5 % too dark at a low sun). Under a sun along
-// the ripples two tilts hold their slopes' light within 6 % where the mean slope alone misses
-// it by up to half (test_ripple_field.py). Its variance is handed over as (1 − kept)² of it,
-// in full only where the ripples lie well below the pixel: where the footprint spans about a
-// ripple its mean slope still follows it, and two tilts about that darkened the frames. It is
-// not capped: strong ripples' steep slopes keep their light too (against frames supersampled
-// with the ripples unfiltered, u_unfiltered_ripples: a truth that does not hold this filter).
+// The slopes the filter takes out still turn the sand to and from the light and the sky, and
+// lengthen and shorten the grains' shadows: their deviation along the ripples' axis
+// (`unresolved`) and the unfiltered profile's shape (SurfacePoint.ripple_profile) are handed to
+// the light, as LEAN and Toksvig mapping hand a filtered normal map's variance to the BRDF, but
+// along the one axis ripples tilt on (spread around the normal, as those do, it left the far
+// frames 2–5 % too dark at a low sun) and with the profile's skew: a short steep lee, a long
+// gentle windward side. The diffuse light is taken at three tilts, each third of the slopes at
+// its mean angle (ripple_nodes), the glints' at four quantiles of each third
+// (tilted_tile_specular). Under a sun along the ripples the three hold their slopes' light
+// within 4–9 % (22 % on steep ground at strength 1) where two tilts either side of the mean
+// miss it by up to 22–89 % (test_ripple_field.py). Its variance is handed over as (1 − kept)²
+// of it, in full only where the ripples lie well below the pixel: where the footprint spans
+// about a ripple its mean slope still follows it, and tilts about that darkened the frames. It
+// is not capped: strong ripples' steep slopes keep their light too (against frames
+// supersampled with the ripples unfiltered, u_unfiltered_ripples: a truth that does not hold
+// this filter).
 const float RIPPLE_WAVELENGTH = 0.09;  // metres
-const float RIPPLE_SHARPNESS = 0.5;    // the profile's asymmetry on gentle ground (0: a sine)
-const float RIPPLE_STEEP_SHARPNESS = 0.9;
 const float RIPPLE_WANDER = 0.6;       // crests' sideways wander, in wavelengths
 const vec2 RIPPLE_WANDER_SCALE = vec2(1.6, 0.8); // metres: the wander's features (along, across)
 const float DEFECT_CELL = 1.6;         // metres: one fork pair at most per cell of the wind's frame
@@ -133,9 +135,10 @@ float ripple_mean_square(float sharp) {
 // footprint of derivatives dx, dy, on gentle (steep = 0) to steep (1) ground; the phase is set
 // back by `bend` metres (RIPPLE_BEND times the dune's height), whose gradient is bend_grad.
 // `unresolved`: the deviation of the slopes the filter takes out, along the axis they lie on
-// (the unfiltered profile's mean square less the filtered one's), as much as is handed on.
+// (the unfiltered profile's mean square less the filtered one's), as much as is handed on;
+// `sharpest`: the unfiltered profile's asymmetry (RIPPLE_SHARPNESS on gentle ground, 0 a sine).
 vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_grad,
-                out vec2 unresolved) {
+                out vec2 unresolved, out float sharpest) {
     vec3 wander = value_noise(q / RIPPLE_WANDER_SCALE, RIPPLE_KEY);
     float k = 2.0 * PI / RIPPLE_WAVELENGTH;
     float shift = RIPPLE_WANDER * RIPPLE_WAVELENGTH;  // metres of wander per unit of noise
@@ -152,7 +155,7 @@ vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_gra
     // h = sin(t + s·sin t)/k: its slope is dh/dt·∇t/k, largest 1 at the lee (over 1 + s).
     // The asymmetry is the profile's harmonics, which the footprint filters as its second:
     // exp(−4σ²/2) against the fundamental's exp(−σ²/2).
-    float sharpest = mix(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, steep);
+    sharpest = mix(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, steep);
     float sharp = sharpest * exp(-1.5 * spread2);
     float profile = cos(phase + sharp * sin(phase)) * (1.0 + sharp * cos(phase)) / (1.0 + sharp);
     float lost = ripple_mean_square(sharpest) - keep * keep * ripple_mean_square(sharp);
@@ -161,9 +164,9 @@ vec2 ripples_at(vec2 q, vec2 dx, vec2 dy, float steep, float bend, vec2 bend_gra
 }
 
 // The macro normal with ripples across the wind and fine detail; `unresolved`: the deviation
-// of the ripples' slopes that the footprint averages away and hands to the diffuse light, in
-// the tangent plane.
-vec3 rippled_normal(SurfacePoint s, out vec2 unresolved) {
+// of the ripples' slopes that the footprint averages away and hands to the light, in the
+// tangent plane, and `profile` their profile's (SurfacePoint.ripple_profile).
+vec3 rippled_normal(SurfacePoint s, out vec2 unresolved, out vec2 profile) {
     // The ripples' frame: +x the way the wind blows (from the compass bearing
     // u_wind_direction), in uv, which is the world's (x, z) on the dunes.
     float from = radians(u_wind_direction);
@@ -175,10 +178,13 @@ vec3 rippled_normal(SurfacePoint s, out vec2 unresolved) {
     float steep = smoothstep(0.2, 0.45, length(s.normal.xz));
     vec2 dx = transpose(frame) * footprint_dx(s.uv), dy = transpose(frame) * footprint_dy(s.uv);
     vec2 lost;
+    float sharp;
     vec2 slope = ripples_at(transpose(frame) * s.uv, dx, dy, steep, RIPPLE_BEND * s.position.y,
-                            RIPPLE_BEND * (transpose(frame) * height_grad), lost);
+                            RIPPLE_BEND * (transpose(frame) * height_grad), lost, sharp);
     vec2 grad = frame * slope * (1.0 - u_no_ripples);
     unresolved = RIPPLE_SLOPE_GAIN * u_ripple_strength * (1.0 - u_no_ripples) * (frame * lost);
+    // The slopes handed on are the unfiltered profile's, scaled to their deviation.
+    profile = vec2(inversesqrt(ripple_mean_square(sharp)), sharp);
     vec2 at = s.uv * 4.0;
     vec2 detail = textureGrad(u_detail, at, footprint_dx(at), footprint_dy(at)).xy;
     grad += detail * (u_detail_strength / max(u_ripple_strength, 1e-3));
@@ -203,8 +209,9 @@ SurfacePoint turned_to(SurfacePoint s, vec3 n, vec3 v) {
 // hidden by its crest), with the tangent frame turned to it and the ripples' slopes too fine
 // for the pixel in `unresolved`.
 SurfacePoint rippled_point(SurfacePoint s, vec3 v) {
-    vec2 unresolved;
-    SurfacePoint r = turned_to(s, rippled_normal(s, unresolved), v);
+    vec2 unresolved, profile;
+    SurfacePoint r = turned_to(s, rippled_normal(s, unresolved, profile), v);
     r.unresolved = unresolved;
+    r.ripple_profile = profile;
     return r;
 }

@@ -18,8 +18,10 @@ struct SurfacePoint {
     vec3 bitangent;  // unit, world, direction of +v
     vec2 uv;         // metres along the surface; the material applies its scale
     // The ripples' slopes that the pixel's footprint averages away (sand_far.glsl's
-    // rippled_point): their deviation along the axis they lie on, in the tangent plane.
+    // rippled_point): their deviation along the axis they lie on, in the tangent plane, and
+    // their profile: x its steepest slope over that deviation, y its asymmetry (0: a sine).
     vec2 unresolved;
+    vec2 ripple_profile;
 };
 
 uniform sampler2D u_albedo;          // linear albedo
@@ -270,19 +272,66 @@ void five_normals_light(vec3 kd, vec2 m, vec2 variance, float lod, SurfacePoint 
     }
 }
 
-// How many tilts the ripples too fine for the pixel (s.unresolved) are taken at: two, either
-// side of the mean slope, or one (none) where their slopes' deviation is under
-// RIPPLE_UNRESOLVED_LEAST, whose tilts change the light by under 0.2 % (the cosine's second
-// order): not worth a second evaluation.
-int ripple_tilts(SurfacePoint s) {
+// The ripple profile's slopes, in units of its steepest, at the four Gauss–Legendre quantiles
+// of a third (0, 1, 2: from the most negative) of its slope distribution, for asymmetry
+// `sharp` (far_brdf.ripple_quantile_fit's quadratics).
+vec4 ripple_quantiles(int third, float sharp) {
+    if (third == 0) {
+        return RIPPLE_QUANTILES_00 + sharp * (RIPPLE_QUANTILES_01 + sharp * RIPPLE_QUANTILES_02);
+    }
+    if (third == 1) {
+        return RIPPLE_QUANTILES_10 + sharp * (RIPPLE_QUANTILES_11 + sharp * RIPPLE_QUANTILES_12);
+    }
+    return RIPPLE_QUANTILES_20 + sharp * (RIPPLE_QUANTILES_21 + sharp * RIPPLE_QUANTILES_22);
+}
+
+// The slope of each third of the unresolved ripples' slopes at its mean angle, in units of
+// their deviation (along s.unresolved): three tilts of a third each that hold the ripples'
+// skew (a short steep lee, a long gentle windward side) and the light of slopes too steep for a
+// mean of slopes to hold (far_brdf.ripple_tilt_slopes).
+vec3 ripple_nodes(SurfacePoint s) {
+    float deviation = length(s.unresolved);
+    float steepest = deviation * s.ripple_profile.x;
+    vec3 angles = vec3(
+        dot(RIPPLE_QUANTILE_WEIGHTS, atan(steepest * ripple_quantiles(0, s.ripple_profile.y))),
+        dot(RIPPLE_QUANTILE_WEIGHTS, atan(steepest * ripple_quantiles(1, s.ripple_profile.y))),
+        dot(RIPPLE_QUANTILE_WEIGHTS, atan(steepest * ripple_quantiles(2, s.ripple_profile.y))));
+    return tan(angles) / max(deviation, 1e-30);
+}
+
+// Whether the ripples too fine for the pixel (s.unresolved) tilt it: not where their slopes'
+// deviation is under RIPPLE_UNRESOLVED_LEAST, whose tilts change the light by under 0.2 % (the
+// cosine's second order): not worth three evaluations in place of one.
+bool ripples_tilt(SurfacePoint s) {
     float least = RIPPLE_UNRESOLVED_LEAST;
-    return dot(s.unresolved, s.unresolved) > least * least ? 2 : 1;
+    return dot(s.unresolved, s.unresolved) > least * least;
 }
 
 // The point turned as a ripple's side of tangent-space `slope` turns it, bent to face the eye
 // as the resolved ripples are (rippled_point).
 SurfacePoint ripple_tilted(SurfacePoint s, vec2 slope, vec3 v) {
     return turned_to(s, to_world(vec3(-slope, 1.0), s), v);
+}
+
+// The mean share of the sun's and the moon's light that reaches the grains of s for an eye
+// along v (sand_relief.glsl).
+vec2 mean_relief_visibilities(Lighting L, SurfacePoint s, vec3 v) {
+    vec3 e = to_tangent(v, s);
+    return vec2(mean_relief_visibility(to_tangent(L.sun_direction, s), e),
+                mean_relief_visibility(to_tangent(L.moon_direction, s), e));
+}
+
+// The lights L, whose radiance holds the grains' shadows on a point where `reaching` of each
+// reaches them (mean_relief_visibilities), as they reach the grains of the point turned to t:
+// a ripple's side turned to a low sun has its grains' shadows shorter, the side turned away
+// longer.
+Lighting relief_turned(Lighting L, SurfacePoint t, vec3 v, vec2 reaching) {
+    vec2 here = mean_relief_visibilities(L, t, v);
+    vec2 turned = mix(vec2(1.0), here / max(reaching, vec2(1e-30)),
+                      greaterThan(reaching, vec2(1e-3)));
+    L.sun_radiance *= turned.x;
+    L.moon_radiance *= turned.y;
+    return L;
 }
 
 // The diffuse light averaged over the footprint's grain normals (the mean of nx, ny and of
@@ -295,29 +344,52 @@ SurfacePoint ripple_tilted(SurfacePoint s, vec2 slope, vec3 v) {
 // range's diffuse light is the close range's: the five's light is corrected by what they
 // miss of the grains' own, as the footprint's level `lod` grows to hold whole grains
 // (diffuse_correction). The ripples too fine for the pixel (s.unresolved) tilt the footprint's
-// grains either way along the ripples' axis: the five are taken at both tilts, which hold the
-// ripples' variance as the five hold the grains', in both ranges alike (the far range is the
-// close range's limit). `spread`: x the variance of the sun's and the moon's luminance over
-// the five (their light's spread across the footprint), y the sun's mean luminance.
+// grains along the ripples' axis: the five are taken at three tilts (ripple_nodes), each
+// a third of the ripples' slopes, with the grains' shadows as each tilt casts them
+// (relief_turned) and the sky as each tilt sees it, in both ranges alike (the far range is the
+// close range's limit). The sky at the untilted normal alone left strong ripples (slopes to 8)
+// 17 % too bright at a low sun, against frames supersampled with the ripples unfiltered: a
+// ripple's steep sides see less of it. `spread`: x the variance of the sun's and the moon's
+// luminance over the five at every tilt (their light's spread across the footprint), y the
+// sun's mean luminance, z the variance of the luminance between the tilts (the ripples' share
+// of x, with the sky each tilt sees).
 vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, vec3 v,
-                            Lighting L, out vec2 spread) {
+                            Lighting L, out vec3 spread) {
     vec2 m = normals.xy;
     vec2 variance = max(normals.zw - m * m, 0.0);
     vec3 sum = vec3(0.0);
     vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
-    int tilts = ripple_tilts(s);
-    for (int j = 0; j < 2; ++j) {
-        if (j >= tilts) break;
-        // Each tilt: the deviation either way (no ?: on structures: WebGL refuses it).
-        SurfacePoint t = s;
-        if (tilts == 2) t = ripple_tilted(s, j == 0 ? s.unresolved : -s.unresolved, v);
-        five_normals_light(kd, m, variance, lod, t, v, L, 1.0 / float(tilts), sum, moments);
-    }
-    spread = vec2(max(moments.y - moments.x * moments.x, 0.0), moments.z);
+    vec2 tilt_moments = vec2(0.0);  // of each tilt's luminance: its mean, its mean square
     // The sky's light is linear in the normal, and the light through grain edges does not
-    // depend on it: both once, for the mean normal (neither adds to the variance: a share of
-    // the footprint's light that does not vary across it).
-    vec3 mean_normal = to_world(vec3(m, sqrt(max(1.0 - dot(m, m), 0.0))), s);
+    // depend on it: the one at the mean of the tilts' mean normals, the other once (neither
+    // adds to the variance: a share of the footprint's light that does not vary across it).
+    vec3 mean_normal = vec3(0.0);
+    int tilts = ripples_tilt(s) ? 3 : 1;
+    vec2 reaching = vec2(1.0);
+    vec3 nodes = vec3(0.0);
+    if (tilts == 3) {
+        reaching = mean_relief_visibilities(L, s, v);
+        nodes = ripple_nodes(s);
+    }
+    for (int j = 0; j < 3; ++j) {
+        if (j >= tilts) break;
+        SurfacePoint t = s;
+        Lighting lit = L;
+        if (tilts == 3) {
+            float node = j == 0 ? nodes.x : (j == 1 ? nodes.y : nodes.z);
+            t = ripple_tilted(s, node * s.unresolved, v);
+            lit = relief_turned(L, t, v, reaching);
+        }
+        vec3 before = sum;
+        five_normals_light(kd, m, variance, lod, t, v, lit, 1.0 / float(tilts), sum, moments);
+        vec3 normal = to_world(vec3(m, sqrt(max(1.0 - dot(m, m), 0.0))), t);
+        mean_normal += normal / float(tilts);
+        vec3 tilt_light = (sum - before) * float(tilts) + sand_sky(kd, normal, L.sky_irradiance);
+        float luminance = dot(tilt_light, LUMINANCE_WEIGHTS);
+        tilt_moments += vec2(luminance, luminance * luminance) / float(tilts);
+    }
+    spread = vec3(max(moments.y - moments.x * moments.x, 0.0), moments.z,
+                  max(tilt_moments.y - tilt_moments.x * tilt_moments.x, 0.0));
     return sum + sand_sky(kd, mean_normal, L.sky_irradiance)
          + grain_transmission(kd, L.sun_direction, v, L.sun_radiance)
          + grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
@@ -348,29 +420,44 @@ void lights_in_tangent(SurfacePoint s, Lighting L, inout Footprint f) {
     f.lit1 = dot(L.moon_radiance, L.moon_radiance) > 0.0;
 }
 
-// The light the tile's whole distribution of facets mirrors. Where ripples too fine for the
-// pixel tilt the footprint (s.unresolved), a ripple's side turns the half vectors of a grazing
-// light and eye into the facets' slopes or out of them, far from linearly in its slope: the
-// light is taken at four phases of a sine ripple of that deviation, a quarter period apart (its
-// steepest either way, ±√2 of the deviation, and its crest and trough, untilted), which holds
-// the ripple's mean of any cubic in its slope. At the diffuse light's two tilts, glinty sand
-// under a low sun ahead came out 7 % too bright against frames supersampled 8×8 with the
-// ripples unfiltered (and shading the mean slope alone, 28 % too dark); so, within 4 %
-// (test_ripple_field.py). The diffuse light varies more gently in the slope: two tilts serve it.
-// h0, h1: the half vectors at the footprint's mean slope (half_vectors_at).
-vec3 tile_specular(SurfacePoint s, Footprint f, Lighting L, vec3 v, bool copies, HalfVector h0,
-                   HalfVector h1, out vec3 untilted) {
-    SlopeMoments m = tile_moments(copies);
-    untilted = sand_specular(moments_factors(m, h0, h1), h0, h1, L);
-    if (ripple_tilts(s) < 2) return untilted;
-    vec3 sides = vec3(0.0);
-    for (int j = 0; j < 2; ++j) {
-        Footprint g = f;
-        lights_in_tangent(ripple_tilted(s, (j == 0 ? SQRT2 : -SQRT2) * s.unresolved, v), L, g);
-        half_vectors_at(g, vec2(0.0), h0, h1);
-        sides += sand_specular(moments_factors(m, h0, h1), h0, h1, L);
+// The light the tile's facets (m) mirror on the point tilted by a ripple's side of `slope`
+// along s.unresolved, in units of its deviation.
+vec3 tile_specular_at(SurfacePoint s, Footprint f, Lighting L, vec3 v, SlopeMoments m,
+                      float slope) {
+    lights_in_tangent(ripple_tilted(s, slope * s.unresolved, v), L, f);
+    HalfVector h0, h1;
+    half_vectors_at(f, vec2(0.0), h0, h1);
+    return sand_specular(moments_factors(m, h0, h1), h0, h1, L);
+}
+
+// The light the tile's facets (m) mirror where ripples too fine for the pixel tilt it
+// (s.unresolved): a ripple's side turns the half vectors of a grazing light and eye into the
+// facets' slopes or out of them, sharply and far from linearly in its slope, so the light is
+// the mean over the ripples' slopes by Gauss–Legendre at four quantiles of each third of them
+// (ripple_quantiles). At the diffuse light's three tilts, the black sand under a low sun ahead
+// was 10–17 % too bright about the glints' highlight and 8 % too dark nearer, per row of the
+// probe's frame, against it supersampled 8×8 with the ripples unfiltered; at these twelve,
+// within 1 % in every row (test_ripple_field.py).
+vec3 tilted_tile_specular(SurfacePoint s, Footprint f, Lighting L, vec3 v, SlopeMoments m) {
+    vec3 sum = vec3(0.0);
+    // One loop of twelve, not four calls a third: a WebGL compiler inlines each call.
+    for (int j = 0; j < 12; ++j) {
+        vec4 pick = vec4(equal(ivec4(j % 4), ivec4(0, 1, 2, 3)));
+        float q = dot(pick, ripple_quantiles(j / 4, s.ripple_profile.y));
+        float weight = dot(pick, RIPPLE_QUANTILE_WEIGHTS) / 3.0;
+        sum += weight * tile_specular_at(s, f, L, v, m, s.ripple_profile.x * q);
     }
-    return 0.5 * untilted + 0.25 * sides;
+    return sum;
+}
+
+// The light the tile's whole distribution of facets mirrors, on the ripples' tilts where they
+// tilt the pixel (tilted_tile_specular). h0, h1: the half vectors at the footprint's mean slope
+// (half_vectors_at).
+vec3 tile_specular(SurfacePoint s, Footprint f, Lighting L, vec3 v, bool copies, HalfVector h0,
+                   HalfVector h1) {
+    SlopeMoments m = tile_moments(copies);
+    if (ripples_tilt(s)) return tilted_tile_specular(s, f, L, v, m);
+    return sand_specular(moments_factors(m, h0, h1), h0, h1, L);
 }
 
 // Up close the sparkles are drawn at the footprint's mean slope; where ripples too fine for
@@ -382,9 +469,10 @@ vec3 tile_specular(SurfacePoint s, Footprint f, Lighting L, vec3 v, bool copies,
 // h0, h1: the half vectors the sparkles were drawn for.
 vec3 glints_on_ripples(vec3 glint, SurfacePoint s, Footprint f, Lighting L, vec3 v,
                        HalfVector h0, HalfVector h1) {
-    if (ripple_tilts(s) < 2) return glint;
-    vec3 mean;
-    vec3 tilted = tile_specular(s, f, L, v, u_tile_variation != 0, h0, h1, mean);
+    if (!ripples_tilt(s)) return glint;
+    SlopeMoments m = tile_moments(u_tile_variation != 0);
+    vec3 mean = sand_specular(moments_factors(m, h0, h1), h0, h1, L);
+    vec3 tilted = tilted_tile_specular(s, f, L, v, m);
     vec3 share = mix(vec3(1.0), tilted / max(mean, vec3(1e-30)), greaterThan(mean, vec3(0.0)));
     return glint * min(share, vec3(1.0)) + max(tilted - mean, vec3(0.0));
 }
@@ -459,7 +547,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
         c.glint = glints_on_ripples(sand_specular(densities, h[0], h[1], L), s, f, L, v, h[0],
                                     h[1]);
     }
-    vec2 spread;
+    vec3 spread;
     c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, spread) + c.glint;
     // Where the relief is not drawn, the grains' shadows are not either: of the sun's mean
     // light m on the footprint, a share v (the mean visibility) of its grains is lit by m / v
@@ -474,7 +562,13 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
 
 // Far away: the tile's average albedo and its whole distribution of mirroring facets on the
 // macro normal, no sparkle: the limit of shade_close as the footprint covers the tile.
-vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
+// `spread`: the variance of the luminance between the ripples' tilts over the squared mean, for
+// the tone curve (Shaded.spread). The grains' own spread is not: each part of a far pixel
+// holds many grains, but only a few ripples, whose sides turn to the light and from it. At
+// 30 and 100 m against frames supersampled 16×16 with the ripples unfiltered (bench depth's
+// view, 07:00 and 16:30), FLIP with it and without: ripples 0.3, 0.032–0.075 and 0.041–0.087;
+// ripples 1, 0.072–0.094 and 0.082–0.119.
+vec3 shade_far(SurfacePoint s, Lighting L, vec3 v, out float spread) {
     Footprint f = Footprint(s.uv * u_uv_scale, vec2(0.0), vec2(0.0), vec3(0.0), vec3(0.0),
                             vec3(0.0), false, false);
     lights_in_tangent(s, L, f);
@@ -487,12 +581,14 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v) {
     vec4 normals = textureLod(u_normal_moments, centre, u_max_lod);
     bool copies = u_tile_variation != 0;
     if (copies) normals = copies_normal_moments(normals);
-    vec2 spread;  // not written far away (shade_sand): the ripples' slopes vary there instead
+    vec3 spreads;
     HalfVector h0, h1;
     half_vectors_at(f, vec2(0.0), h0, h1);
-    vec3 untilted;
-    return filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, spread)
-         + tile_specular(s, f, L, v, copies, h0, h1, untilted);
+    vec3 radiance = filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, spreads)
+                  + tile_specular(s, f, L, v, copies, h0, h1);
+    float mean = dot(radiance, LUMINANCE_WEIGHTS);
+    spread = mean > 1e-8 ? spreads.z / (mean * mean) : 0.0;
+    return radiance;
 }
 
 vec3 shade_lambert(SurfacePoint s, Lighting L) {
@@ -517,8 +613,8 @@ bool sand_covers(vec3 position, vec3 eye, int mode) {
 }
 
 // `spread`: the variance of the light's luminance across the pixel over its squared mean, which
-// the tone curve takes (tone.glsl's aces_over_spread): the close range's, as much of it as the
-// blend keeps; 0 where the pixel's light is taken as even (far away, the debug modes).
+// the tone curve takes (tone.glsl's aces_over_spread): each range's, as much of it as the blend
+// keeps; 0 where the pixel's light is taken as even (the debug modes).
 vec3 shade_sand(SurfacePoint s, Lighting L, int mode, out float spread) {
     spread = 0.0;
     vec3 to_eye = L.eye - s.position;
@@ -530,14 +626,14 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode, out float spread) {
     if (mode == MODE_LAMBERT) return shade_lambert(s, L);
     // The grains lie on the ripples: close and far shade the same rippled surface.
     SurfacePoint r = rippled_point(s, v);
-    if (mode == MODE_FAR) return shade_far(r, L, v);
+    if (mode == MODE_FAR) return shade_far(r, L, v, spread);
 
     // Past the cutoff the close term's share is negligible: none of its work is done.
 #if defined SAND_FAR_ONLY
-    return shade_far(r, L, v);
+    return shade_far(r, L, v, spread);
 #endif
     bool whole = mode == MODE_FULL || mode == MODE_REFERENCE_LOOK;
-    if (whole && blend > u_close_cutoff) return shade_far(r, L, v);
+    if (whole && blend > u_close_cutoff) return shade_far(r, L, v, spread);
     Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK);
 
     if (mode == MODE_CLOSE) {
@@ -549,11 +645,14 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode, out float spread) {
     if (mode == MODE_MIP) return lod_colour(close.lod / max(u_max_lod, 1.0));
     // Both ranges hold the same light on average (the far one is the close one's limit), so
     // the blend only decides which work is done.
-    vec3 far = blend > 1e-4 ? shade_far(r, L, v) : vec3(0.0);
+    float far_spread = 0.0;
+    vec3 far = blend > 1e-4 ? shade_far(r, L, v, far_spread) : vec3(0.0);
     vec3 radiance = mix(close.radiance, far, blend);
-    // The far share is even across the pixel: only the close share's variance is left.
+    // Each share's variance, as each holds it.
     float close_share = (1.0 - blend) * dot(close.radiance, LUMINANCE_WEIGHTS);
+    float far_share = blend * dot(far, LUMINANCE_WEIGHTS);
     float mean = dot(radiance, LUMINANCE_WEIGHTS);
-    spread = mean > 1e-8 ? close.spread * (close_share * close_share) / (mean * mean) : 0.0;
+    float variance = close.spread * close_share * close_share + far_spread * far_share * far_share;
+    spread = mean > 1e-8 ? variance / (mean * mean) : 0.0;
     return radiance;
 }

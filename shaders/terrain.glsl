@@ -54,6 +54,7 @@ void main() {
     s.bitangent = cross(s.tangent, s.normal);
     s.uv = v_uv;
     s.unresolved = vec2(0.0);
+    s.ripple_profile = vec2(0.0);
     float spread;
     vec3 radiance = shade_sand(s, shadowed(scene_lighting(u_eye), v_world, s.normal), u_mode,
                                spread);

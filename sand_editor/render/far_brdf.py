@@ -56,9 +56,20 @@ SINGLE_WEIGHT, MULTIPLE_WEIGHT = 0.995917, 0.0684744
 # steepest) against its asymmetry s: 0.5 (1 + s² (A + B s)) / (1 + s)², fitted to
 # ripple_mean_square over 0 ≤ s ≤ 1.
 RIPPLE_MEAN_SQUARE_FIT = (0.195, 0.19)
-# The least deviation of slope the ripples too fine for a pixel hand to the diffuse light as
-# two tilts (sand_far.glsl): two tilts of a smaller deviation σ change the light by under σ²/2.
+# The least deviation of slope the ripples too fine for a pixel hand to the light as tilts
+# (sand_far.glsl): tilts of a smaller deviation σ change the light by under σ²/2.
 RIPPLE_UNRESOLVED_LEAST = 0.05
+# Ripple strength 1 means slopes this many times the detail map's (sand_far.glsl).
+RIPPLE_SLOPE_GAIN = 8.0
+# The ripple profile's asymmetry on gentle ground and on steep ground (sand_far.glsl).
+RIPPLE_SHARPNESS = 0.5
+RIPPLE_STEEP_SHARPNESS = 0.9
+# The ripples too fine for a pixel tilt its diffuse light at three slopes of equal share: each
+# third of the profile's slope distribution, at its mean angle (ripple_tilt_slopes). The
+# shaders take each third's mean angle by Gauss–Legendre over its quantiles, at this many
+# points of it (a vec4), whose slopes (in units of the steepest) are quadratics in the
+# asymmetry (ripple_quantile_fit); the glints' light, sharper in the slope, at all twelve.
+RIPPLE_QUANTILE_POINTS = 4
 # What shaders/sand_surface.glsl and sand_far.glsl are compiled with: these facts live here.
 SHADER_DEFINES = {
     name: repr(float(value))
@@ -77,6 +88,9 @@ SHADER_DEFINES = {
         "RIPPLE_MEAN_SQUARE_A": RIPPLE_MEAN_SQUARE_FIT[0],
         "RIPPLE_MEAN_SQUARE_B": RIPPLE_MEAN_SQUARE_FIT[1],
         "RIPPLE_UNRESOLVED_LEAST": RIPPLE_UNRESOLVED_LEAST,
+        "RIPPLE_SLOPE_GAIN": RIPPLE_SLOPE_GAIN,
+        "RIPPLE_SHARPNESS": RIPPLE_SHARPNESS,
+        "RIPPLE_STEEP_SHARPNESS": RIPPLE_STEEP_SHARPNESS,
     }.items()
 }
 
@@ -100,6 +114,69 @@ def ripple_mean_square_fit(sharp):
     a, b = RIPPLE_MEAN_SQUARE_FIT
     sharp = np.asarray(sharp, dtype=np.float64)
     return 0.5 * (1.0 + sharp**2 * (a + b * sharp)) / (1.0 + sharp) ** 2
+
+
+def _ripple_slopes_sorted(sharp, steps: int = 3 << 13) -> np.ndarray:
+    """The profile's slopes at ``steps`` evenly spaced phases, sorted: its slope distribution's
+    quantiles at (i + ½) / steps."""
+    phase = 2.0 * np.pi * (np.arange(steps) + 0.5) / steps
+    return np.sort(ripple_slope(phase, sharp))
+
+
+def ripple_tilt_slopes(steepest, sharp) -> np.ndarray:
+    """The three slopes the ripples too fine for a pixel tilt it at, for a profile of asymmetry
+    ``sharp`` whose steepest slope is ``steepest``: the mean angle of each third of its slopes
+    (sorted), as a slope. Each third stands for a third of the ripples' light: a rule that holds
+    the profile's skew (its lee is short and steep, its windward side long and gentle) and, as
+    angles, the light of slopes too steep for a mean of slopes to hold."""
+    angles = np.arctan(steepest * _ripple_slopes_sorted(sharp))
+    return np.tan(angles.reshape(3, -1).mean(axis=1))
+
+
+def _quantile_points() -> tuple[np.ndarray, np.ndarray]:
+    """The Gauss–Legendre points (3, RIPPLE_QUANTILE_POINTS) over each third of the quantiles,
+    and their weights, summing to one."""
+    x, w = np.polynomial.legendre.leggauss(RIPPLE_QUANTILE_POINTS)
+    points = (np.arange(3)[:, None] + 0.5 * (x[None, :] + 1.0)) / 3.0
+    return points, 0.5 * w
+
+
+def ripple_quantile_fit() -> np.ndarray:
+    """The shaders' ripple_quantiles: the profile's slopes at each third's Gauss–Legendre
+    quantiles as quadratics c0 + c1 s + c2 s² in its asymmetry s over the shipped range
+    (RIPPLE_SHARPNESS to RIPPLE_STEEP_SHARPNESS); shape (3 coefficients, 3 thirds, points)."""
+    points, _ = _quantile_points()
+    sharp = np.linspace(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, 17)
+    steps = 3 << 13
+    at = (np.arange(steps) + 0.5) / steps
+    slopes = np.array([np.interp(points, at, _ripple_slopes_sorted(s, steps)) for s in sharp])
+    coefficients = np.polynomial.polynomial.polyfit(sharp, slopes.reshape(sharp.size, -1), 2)
+    return coefficients.reshape(3, 3, RIPPLE_QUANTILE_POINTS)
+
+
+def ripple_tilt_slopes_fit(steepest, sharp) -> np.ndarray:
+    """The shaders' ripple_tilt_slopes (sand_surface.glsl's ripple_nodes), from the fit."""
+    c = ripple_quantile_fit()
+    points, weights = _quantile_points()
+    quantiles = c[0] + sharp * (c[1] + sharp * c[2])
+    return np.tan((weights * np.arctan(steepest * quantiles)).sum(axis=1))
+
+
+def _vec4(values) -> str:
+    return "vec4({})".format(", ".join(repr(float(x)) for x in values))
+
+
+def _quantile_defines() -> dict[str, str]:
+    c = ripple_quantile_fit()
+    _, weights = _quantile_points()
+    defines = {"RIPPLE_QUANTILE_WEIGHTS": _vec4(weights)}
+    for third in range(3):
+        for power in range(3):
+            defines[f"RIPPLE_QUANTILES_{third}{power}"] = _vec4(c[power, third])
+    return defines
+
+
+SHADER_DEFINES.update(_quantile_defines())
 
 
 def sphere_albedo_terms(kd):
