@@ -1,7 +1,6 @@
 // The sand's large-scale surface and diffuse BRDF: ripples on the macro normal and d'Eon's
 // Lambertian-sphere BRDF (included by sand_surface.glsl after its uniforms and helpers).
 
-
 // d'Eon (2021), the fitted form of the BRDF of a half space of Lambertian spheres, per unit
 // albedo at the tile's average albedo kd̄, every channel at once. What depends on kd̄ alone — c,
 // the particles' single-scattering albedo mapped from it, and the multiple-scattering floor —

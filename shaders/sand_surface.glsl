@@ -360,10 +360,6 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, ve
     vec3 sum = vec3(0.0);
     vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
     vec2 tilt_moments = vec2(0.0);  // of each tilt's luminance: its mean, its mean square
-    // The sky's light is linear in the normal, and the light through grain edges does not
-    // depend on it: the one at the mean of the tilts' mean normals, the other once (neither
-    // adds to the variance: a share of the footprint's light that does not vary across it).
-    vec3 mean_normal = vec3(0.0);
     int tilts = ripples_tilt(s) ? 3 : 1;
     vec2 reaching = vec2(1.0);
     vec3 nodes = vec3(0.0);
@@ -382,16 +378,19 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, ve
         }
         vec3 before = sum;
         five_normals_light(kd, m, variance, lod, t, v, lit, 1.0 / float(tilts), sum, moments);
-        vec3 normal = to_world(vec3(m, sqrt(max(1.0 - dot(m, m), 0.0))), t);
-        mean_normal += normal / float(tilts);
-        vec3 tilt_light = (sum - before) * float(tilts) + sand_sky(kd, normal, L.sky_irradiance);
-        float luminance = dot(tilt_light, LUMINANCE_WEIGHTS);
+        // The sky's light is linear in the normal: once per tilt, at its mean normal (it adds
+        // nothing to the variance over the five: a share of the light that does not vary
+        // across the footprint's grains, but does across the ripples).
+        vec3 sky = sand_sky(kd, to_world(vec3(m, sqrt(max(1.0 - dot(m, m), 0.0))), t),
+                            L.sky_irradiance);
+        float luminance = dot((sum - before) * float(tilts) + sky, LUMINANCE_WEIGHTS);
         tilt_moments += vec2(luminance, luminance * luminance) / float(tilts);
+        sum += sky / float(tilts);
     }
     spread = vec3(max(moments.y - moments.x * moments.x, 0.0), moments.z,
                   max(tilt_moments.y - tilt_moments.x * tilt_moments.x, 0.0));
-    return sum + sand_sky(kd, mean_normal, L.sky_irradiance)
-         + grain_transmission(kd, L.sun_direction, v, L.sun_radiance)
+    // The light through grain edges does not depend on the normal: once.
+    return sum + grain_transmission(kd, L.sun_direction, v, L.sun_radiance)
          + grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
 }
 
