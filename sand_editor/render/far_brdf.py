@@ -70,6 +70,8 @@ RIPPLE_STEEP_SHARPNESS = 0.9
 # points of it (a vec4), whose slopes (in units of the steepest) are quadratics in the
 # asymmetry (ripple_quantile_fit); the glints' light, sharper in the slope, at all twelve.
 RIPPLE_QUANTILE_POINTS = 4
+# Phases a period of the profile is sampled at for its slope distribution (a multiple of 3).
+_SLOPE_STEPS = 3 << 13
 # What shaders/sand_surface.glsl and sand_far.glsl are compiled with: these facts live here.
 SHADER_DEFINES = {
     name: repr(float(value))
@@ -116,10 +118,10 @@ def ripple_mean_square_fit(sharp):
     return 0.5 * (1.0 + sharp**2 * (a + b * sharp)) / (1.0 + sharp) ** 2
 
 
-def _ripple_slopes_sorted(sharp, steps: int = 3 << 13) -> np.ndarray:
-    """The profile's slopes at ``steps`` evenly spaced phases, sorted: its slope distribution's
-    quantiles at (i + ½) / steps."""
-    phase = 2.0 * np.pi * (np.arange(steps) + 0.5) / steps
+def _ripple_slopes_sorted(sharp) -> np.ndarray:
+    """The profile's slopes at _SLOPE_STEPS evenly spaced phases, sorted: its slope
+    distribution's quantiles at (i + ½) / _SLOPE_STEPS."""
+    phase = 2.0 * np.pi * (np.arange(_SLOPE_STEPS) + 0.5) / _SLOPE_STEPS
     return np.sort(ripple_slope(phase, sharp))
 
 
@@ -147,9 +149,8 @@ def ripple_quantile_fit() -> np.ndarray:
     (RIPPLE_SHARPNESS to RIPPLE_STEEP_SHARPNESS); shape (3 coefficients, 3 thirds, points)."""
     points, _ = _quantile_points()
     sharp = np.linspace(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, 17)
-    steps = 3 << 13
-    at = (np.arange(steps) + 0.5) / steps
-    slopes = np.array([np.interp(points, at, _ripple_slopes_sorted(s, steps)) for s in sharp])
+    at = (np.arange(_SLOPE_STEPS) + 0.5) / _SLOPE_STEPS
+    slopes = np.array([np.interp(points, at, _ripple_slopes_sorted(s)) for s in sharp])
     coefficients = np.polynomial.polynomial.polyfit(sharp, slopes.reshape(sharp.size, -1), 2)
     return coefficients.reshape(3, 3, RIPPLE_QUANTILE_POINTS)
 
@@ -157,7 +158,7 @@ def ripple_quantile_fit() -> np.ndarray:
 def ripple_tilt_slopes_fit(steepest, sharp) -> np.ndarray:
     """The shaders' ripple_tilt_slopes (sand_surface.glsl's ripple_nodes), from the fit."""
     c = ripple_quantile_fit()
-    points, weights = _quantile_points()
+    _, weights = _quantile_points()
     quantiles = c[0] + sharp * (c[1] + sharp * c[2])
     return np.tan((weights * np.arctan(steepest * quantiles)).sum(axis=1))
 
