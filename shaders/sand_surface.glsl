@@ -313,12 +313,10 @@ SurfacePoint ripple_tilted(SurfacePoint s, vec2 slope, vec3 v) {
     return turned_to(s, to_world(vec3(-slope, 1.0), s), v);
 }
 
-// The mean share of the sun's and the moon's light that reaches the grains of s for an eye
-// along v (sand_relief.glsl).
-vec2 mean_relief_visibilities(Lighting L, SurfacePoint s, vec3 v) {
-    vec3 e = to_tangent(v, s);
-    return vec2(mean_relief_visibility(to_tangent(L.sun_direction, s), e),
-                mean_relief_visibility(to_tangent(L.moon_direction, s), e));
+// The mean share of the light along tangent-space l0 (the sun) and l1 (the moon) that reaches
+// the grains an eye along e sees (sand_relief.glsl).
+vec2 mean_relief_visibilities(vec3 l0, vec3 l1, vec3 e) {
+    return vec2(mean_relief_visibility(l0, e), mean_relief_visibility(l1, e));
 }
 
 // The lights L, whose radiance holds the grains' shadows on a point where `reaching` of each
@@ -326,7 +324,8 @@ vec2 mean_relief_visibilities(Lighting L, SurfacePoint s, vec3 v) {
 // a ripple's side turned to a low sun has its grains' shadows shorter, the side turned away
 // longer.
 Lighting relief_turned(Lighting L, SurfacePoint t, vec3 v, vec2 reaching) {
-    vec2 here = mean_relief_visibilities(L, t, v);
+    vec2 here = mean_relief_visibilities(to_tangent(L.sun_direction, t),
+                                         to_tangent(L.moon_direction, t), to_tangent(v, t));
     vec2 turned = mix(vec2(1.0), here / max(reaching, vec2(1e-30)),
                       greaterThan(reaching, vec2(1e-3)));
     L.sun_radiance *= turned.x;
@@ -352,21 +351,17 @@ Lighting relief_turned(Lighting L, SurfacePoint t, vec3 v, vec2 reaching) {
 // ripple's steep sides see less of it. `spread`: x the variance of the sun's and the moon's
 // luminance over the five at every tilt (their light's spread across the footprint), y the
 // sun's mean luminance, z the variance of the luminance between the tilts (the ripples' share
-// of x, with the sky each tilt sees).
+// of x, with the sky each tilt sees). `reaching`: the mean share of each light that reaches
+// the grains of s (mean_relief_visibilities), which L's radiance holds.
 vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, vec3 v,
-                            Lighting L, out vec3 spread) {
+                            Lighting L, vec2 reaching, out vec3 spread) {
     vec2 m = normals.xy;
     vec2 variance = max(normals.zw - m * m, 0.0);
     vec3 sum = vec3(0.0);
     vec3 moments = vec3(0.0);  // of the luminance: its mean, its mean square, the sun's mean
     vec2 tilt_moments = vec2(0.0);  // of each tilt's luminance: its mean, its mean square
     int tilts = ripples_tilt(s) ? 3 : 1;
-    vec2 reaching = vec2(1.0);
-    vec3 nodes = vec3(0.0);
-    if (tilts == 3) {
-        reaching = mean_relief_visibilities(L, s, v);
-        nodes = ripple_nodes(s);
-    }
+    vec3 nodes = tilts == 3 ? ripple_nodes(s) : vec3(0.0);
     for (int j = 0; j < 3; ++j) {
         if (j >= tilts) break;
         SurfacePoint t = s;
@@ -506,8 +501,8 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     // their mean over many grains where it is not (as far away), and between the two as the
     // relief fades in: by the grains' size against a tap, as sharp as the grains are read.
     vec3 e = normalize(f.to_eye);
-    vec2 reaching = vec2(mean_relief_visibility(f.light0, e), mean_relief_visibility(f.light1, e));
-    vec2 mean_reaching = reaching;
+    vec2 mean_reaching = mean_relief_visibilities(f.light0, f.light1, e);
+    vec2 reaching = mean_reaching;
     float relief = relief_weight(tap_texels(taps));
     vec2 seen_tc = f.tc + mean_relief_shift(e);
     if (relief > 0.0) {
@@ -547,7 +542,8 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
                                     h[1]);
     }
     vec3 spread;
-    c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, spread) + c.glint;
+    c.radiance = filtered_diffuse_light(albedo, normals, c.lod, s, v, L, mean_reaching, spread)
+               + c.glint;
     // Where the relief is not drawn, the grains' shadows are not either: of the sun's mean
     // light m on the footprint, a share v (the mean visibility) of its grains is lit by m / v
     // and the rest by none, a variance of m²(1 − v)/v; none of it where the relief is drawn.
@@ -572,9 +568,9 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v, out float spread) {
                             vec3(0.0), false, false);
     lights_in_tangent(s, L, f);
     // Many grains to a pixel: their shadows' mean share of each light (sand_relief.glsl).
-    vec3 e = normalize(f.to_eye);
-    L.sun_radiance *= mean_relief_visibility(f.light0, e);
-    L.moon_radiance *= mean_relief_visibility(f.light1, e);
+    vec2 reaching = mean_relief_visibilities(f.light0, f.light1, normalize(f.to_eye));
+    L.sun_radiance *= reaching.x;
+    L.moon_radiance *= reaching.y;
     vec3 kd = clamp(u_average_albedo, 0.0, 1.0);
     vec2 centre = vec2(0.5);
     vec4 normals = textureLod(u_normal_moments, centre, u_max_lod);
@@ -583,7 +579,7 @@ vec3 shade_far(SurfacePoint s, Lighting L, vec3 v, out float spread) {
     vec3 spreads;
     HalfVector h0, h1;
     half_vectors_at(f, vec2(0.0), h0, h1);
-    vec3 radiance = filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, spreads)
+    vec3 radiance = filtered_diffuse_light(kd, normals, u_max_lod, s, v, L, reaching, spreads)
                   + tile_specular(s, f, L, v, copies, h0, h1);
     float mean = dot(radiance, LUMINANCE_WEIGHTS);
     spread = mean > 1e-8 ? spreads.z / (mean * mean) : 0.0;
