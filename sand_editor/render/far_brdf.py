@@ -104,11 +104,17 @@ def ripple_slope(phase, sharp):
     return np.cos(phase + sharp * np.sin(phase)) * (1.0 + sharp * np.cos(phase)) / (1.0 + sharp)
 
 
-def ripple_mean_square(sharp, steps: int = 4096) -> float:
+def ripple_slopes(sharp) -> np.ndarray:
+    """The profile's slopes over a period, at _SLOPE_STEPS evenly spaced phases (the midpoints
+    of as many equal steps)."""
+    phase = 2.0 * np.pi * (np.arange(_SLOPE_STEPS) + 0.5) / _SLOPE_STEPS
+    return ripple_slope(phase, sharp)
+
+
+def ripple_mean_square(sharp) -> float:
     """The mean square of the ripple profile's slope over a period (exact for its harmonics
-    below ``steps``)."""
-    phase = 2.0 * np.pi * np.arange(steps) / steps
-    return float(np.mean(ripple_slope(phase, sharp) ** 2))
+    below _SLOPE_STEPS)."""
+    return float(np.mean(ripple_slopes(sharp) ** 2))
 
 
 def ripple_mean_square_fit(sharp):
@@ -119,10 +125,9 @@ def ripple_mean_square_fit(sharp):
 
 
 def _ripple_slopes_sorted(sharp) -> np.ndarray:
-    """The profile's slopes at _SLOPE_STEPS evenly spaced phases, sorted: its slope
-    distribution's quantiles at (i + ½) / _SLOPE_STEPS."""
-    phase = 2.0 * np.pi * (np.arange(_SLOPE_STEPS) + 0.5) / _SLOPE_STEPS
-    return np.sort(ripple_slope(phase, sharp))
+    """The profile's slopes over a period, sorted: its slope distribution's quantiles at
+    (i + ½) / _SLOPE_STEPS."""
+    return np.sort(ripple_slopes(sharp))
 
 
 def ripple_tilt_slopes(steepest, sharp) -> np.ndarray:
