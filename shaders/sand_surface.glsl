@@ -473,8 +473,9 @@ vec3 glints_on_ripples(vec3 glint, SurfacePoint s, Footprint f, Lighting L, vec3
 
 // Close up: the footprint's albedo, mean grain normal and density of mirroring facets, drawn
 // as sparkles. reference_look: the reference's glint instead (its gain and distance boost on
-// the expectation over its kernel, no sparkle).
-Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
+// the expectation over its kernel, no sparkle). `plain`: the point before its ripples
+// turned it (rippled_point's s), the frame the grains' relief is marched in.
+Shaded shade_close(SurfacePoint s, SurfacePoint plain, Lighting L, vec3 v, bool reference_look) {
     Footprint f;
     f.tc = s.uv * u_uv_scale;
     f.dx = footprint_dx(f.tc);
@@ -492,6 +493,7 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
         f.dx = copy.axes * f.dx;
         f.dy = copy.axes * f.dy;
         s = in_copy_axes(s, copy.axes);
+        plain = in_copy_axes(plain, copy.axes);
     }
     // The footprint's taps, in the copy's axes, and the level they read.
     Taps taps = anisotropic_taps(f.dx, f.dy);
@@ -500,8 +502,13 @@ Shaded shade_close(SurfacePoint s, Lighting L, vec3 v, bool reference_look) {
     // The light that reaches the grains: the pixel's own shadows where the relief is drawn,
     // their mean over many grains where it is not (as far away), and between the two as the
     // relief fades in: by the grains' size against a tap, as sharp as the grains are read.
-    vec3 e = normalize(f.to_eye);
-    vec2 mean_reaching = mean_relief_visibilities(f.light0, f.light1, e);
+    vec2 mean_reaching = mean_relief_visibilities(f.light0, f.light1, normalize(f.to_eye));
+    // The eye's ray is marched through the grains in the frame of the surface as drawn, not
+    // of its ripples: the ripples are a normal, not a shape, and a ray in their frame turns
+    // with their slope from pixel to pixel, so that its offset along the surface does too;
+    // where they tilt the most (about a crest) that stretched the grains into fins down the
+    // screen, one pixel's grain smeared over the next ones'.
+    vec3 e = normalize(to_tangent(L.eye - plain.position, plain));
     vec2 reaching = mean_reaching;
     float relief = relief_weight(tap_texels(taps));
     vec2 seen_tc = f.tc + mean_relief_shift(e);
@@ -629,7 +636,7 @@ vec3 shade_sand(SurfacePoint s, Lighting L, int mode, out float spread) {
 #endif
     bool whole = mode == MODE_FULL || mode == MODE_REFERENCE_LOOK;
     if (whole && blend > u_close_cutoff) return shade_far(r, L, v, spread);
-    Shaded close = shade_close(r, L, v, mode == MODE_REFERENCE_LOOK);
+    Shaded close = shade_close(r, s, L, v, mode == MODE_REFERENCE_LOOK);
 
     if (mode == MODE_CLOSE) {
         spread = close.spread;
