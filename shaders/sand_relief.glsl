@@ -1,21 +1,21 @@
 // Grain relief up close (included by sand_surface.glsl after its uniforms): the grains stand at
 // their depth and shade each other along the light, from the height the generator makes.
 //
-// The material's albedo texture holds each texel's relief height in its alpha, 1 for the top
-// of the tallest grain and 0 in the gaps (material_build.frag); its mipmaps average it, so a
-// coarse footprint sees a smoothed surface. The grains sink below the shading point's plane by
-// at most RELIEF_DEPTH_CELLS grain cells. The eye's ray is marched down through the height
-// field in a bounded number of steps (parallax occlusion mapping), each eye with its own view
-// vector, so each sees the grains at their own depth; from where it lands, a ray towards the
-// light finds how far the grains in front rise above it (a soft shadow). Both fade in as a
-// grain cell grows from RELIEF_FADE_PX.x to .y of the footprint's taps (a pixel's width across,
-// a share of its length along a grazing view: sand_surface.glsl), and nothing of it runs below
-// that, so mid and far range pay nothing. Where it fades out, the footprint is read where the
-// eye's ray meets the grains on average (mean_relief_shift), so the grains do not slide
-// towards the eye as the view draws back. What the shadows take from a pixel of many grains is
-// not lost there: the material measures its mean per light and eye direction
-// (relief_visibility.frag) and the far range, and the close range where the relief fades, are
-// lit by that.
+// The material's albedo texture holds each texel's relief height in its alpha, 1 for the top of
+// the tallest grain and 0 in the gaps (material_build.frag); its mipmaps average it, so a coarse
+// footprint sees a smoothed surface. The grains sink below the shading point's plane by at most
+// RELIEF_DEPTH_CELLS grain cells. The eye's ray is marched down through the height field in a
+// bounded number of steps (parallax occlusion mapping, the step that passes below refined by
+// halving), each eye with its own view vector, so each sees the grains at their own depth; from
+// where it lands, a ray towards the light finds how far the grains in front rise above it (a soft
+// shadow). Both fade in as a grain cell grows from RELIEF_FADE_PX.x to .y of the footprint's taps
+// (a pixel's width across, a share of its length along a grazing view: sand_surface.glsl), and
+// nothing of it runs below that, so mid and far range pay nothing. Where it fades out, the
+// footprint is read where the eye's ray meets the grains on average (mean_relief_shift), so the
+// grains do not slide towards the eye as the view draws back. What the shadows take from a pixel
+// of many grains is not lost there: the material measures its mean per light and eye direction
+// (relief_visibility.frag) and the far range, and the close range where the relief fades, are lit
+// by that.
 
 uniform float u_grain_cell;  // a grain cell's edge, in tiles (1 / the generator's period)
 uniform int u_relief;        // 1: grains with relief; 0: flat (the relief's cost measured apart)
@@ -26,6 +26,10 @@ uniform sampler3D u_relief_visibility;
 const float RELIEF_DEPTH_CELLS = 0.5;
 const vec2 RELIEF_FADE_PX = vec2(2.0, 5.0);
 const int RELIEF_STEPS = 12;
+// Halvings of the step in which the ray passes below the grains: a grain's side is a wall in
+// the height field, and the crossing taken between two steps alone lands on either side of it
+// from pixel to pixel, stair steps along the view.
+const int RELIEF_REFINE_STEPS = 4;
 const float RELIEF_SHARPEN_LOD = 1.0;  // heights read this many mip levels finer than the footprint
 const int SHADOW_STEPS = 12;
 const float SHADOW_SOFTNESS = 48.0;  // per unit of depth: how quickly a shadow darkens
@@ -123,10 +127,24 @@ Relief relief_at(vec2 tc, vec3 e, vec3 l0, vec3 l1, bvec2 lit, float lod) {
         depth += step_depth;
         ground = 1.0 - relief_height(at, lod);
     }
-    // Between the last step above the grains and the first below: where the two lines cross.
-    float below = depth - ground;
-    float t = below > 0.0 ? previous_gap / max(previous_gap + below, 1e-6) : 1.0;
-    float hit_depth = mix(previous_depth, depth, t);
+    // Between the last step above the grains and the first below: halve the interval a few
+    // times, then where the two lines cross.
+    float hit_depth = depth;
+    if (depth - ground > 0.0) {
+        float lo = previous_depth, hi = depth, gap_lo = previous_gap, below_hi = depth - ground;
+        for (int k = 0; k < RELIEF_REFINE_STEPS; ++k) {
+            float mid = 0.5 * (lo + hi);
+            float g = 1.0 - relief_height(tc + step_tc * (mid / step_depth), lod);
+            if (mid < g) {
+                lo = mid;
+                gap_lo = g - mid;
+            } else {
+                hi = mid;
+                below_hi = mid - g;
+            }
+        }
+        hit_depth = mix(lo, hi, gap_lo / max(gap_lo + below_hi, 1e-6));
+    }
     Relief r;
     r.tc = tc + step_tc * (hit_depth / step_depth);
     r.depth = hit_depth;
