@@ -11,7 +11,7 @@ from sand_editor.render.camera import Camera, camera_at_distance
 from sand_editor.render.request import FrameRequest
 from sand_editor.render.sky import sky_at
 from sand_editor.resources import bundled_preset
-from tests.render.test_renderer import grain_detail_correlations, scene_hdr
+from tests.render.test_renderer import grain_detail, grain_detail_correlations, scene_hdr
 
 pytestmark = pytest.mark.gl
 
@@ -188,17 +188,6 @@ def test_a_grazing_eye_sees_grains_not_fins(renderer, gl_clean):
     assert deep < 1.2 * flat, (flat, deep)
 
 
-def _grain_detail(image: np.ndarray) -> np.ndarray:
-    """The ground's luminance less its 5×5 box mean (the light's slow change, a ripple's
-    included), sparkles capped at 1.5× the median."""
-    lum = image[H // 2 + 8 : -8, 8:-8].mean(axis=-1)
-    lum = np.minimum(lum, 1.5 * np.median(lum))
-    padded = np.pad(lum, 2, mode="edge")
-    rows, cols = lum.shape
-    box = sum(padded[i : i + rows, j : j + cols] for i in range(5) for j in range(5))
-    return (lum - box / 25.0).ravel()
-
-
 @pytest.mark.parametrize(("strength", "least"), [(0.1, 0.85), (0.3, 0.6)])
 def test_ripples_turn_the_grains_light_not_where_they_lie(
     gl_ctx, renderer, gl_clean, strength, least
@@ -212,14 +201,16 @@ def test_ripples_turn_the_grains_light_not_where_they_lie(
     from sand_editor.render.renderer import SandRenderer
 
     camera = _camera(renderer, 0.05, 35.0)
-    flat = _grain_detail(_draw(renderer, camera, 12.0, True)[1])
+    flat_light = _draw(renderer, camera, 12.0, True)[1]
+    cap = 1.5 * float(np.median(flat_light[H // 2 :]))
+    flat = grain_detail(flat_light, cap)
     material = SandMaterial(gl_ctx, texture_size=512)
     rippled = SandRenderer(gl_ctx)
     try:
         ripples = {"shading.ripple_strength": strength, "shading.detail_strength": 0.0}
         material.update(Preset.load(bundled_preset("paper-default")).replace(**ripples))
         rippled.set_material(material)
-        detail = _grain_detail(_draw(rippled, camera, 12.0, True)[1])
+        detail = grain_detail(_draw(rippled, camera, 12.0, True)[1], cap)
     finally:
         rippled.release()
         material.release()

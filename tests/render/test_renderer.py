@@ -35,21 +35,24 @@ def grain_detail_correlations(
         frames.append(scene_hdr(renderer)[::-1, :, :3].astype(np.float64))
     small, big = frames
     cap = 1.5 * float(np.median(small[height // 2 :]))
-    small, big = np.minimum(small, cap), np.minimum(big, cap)
-
-    def detail(image: np.ndarray) -> np.ndarray:
-        lum = image[height // 2 + 8 : -8, 8:-8].mean(axis=-1)
-        padded = np.pad(lum, 2, mode="edge")
-        rows, cols = lum.shape
-        box = sum(padded[i : i + rows, j : j + cols] for i in range(5) for j in range(5))
-        return (lum - box / 25.0).ravel()
-
-    ours = detail(small)
+    big = np.minimum(big, cap)  # each sample's sparkle capped before they are averaged
+    ours = grain_detail(small, cap)
     correlation = {}
     for shift in shifts:
         shifted = np.roll(big, shift, axis=0).reshape(height, k, width, k, 3).mean(axis=(1, 3))
-        correlation[shift] = float(np.corrcoef(ours, detail(shifted))[0, 1])
+        correlation[shift] = float(np.corrcoef(ours, grain_detail(shifted, cap))[0, 1])
     return correlation
+
+
+def grain_detail(image: np.ndarray, cap: float) -> np.ndarray:
+    """The ground's (lower half's, 8 pixels in from its edges) luminance less its 5×5 box mean
+    (the light's slow change), each pixel's light capped at ``cap``: the grains' detail."""
+    height = image.shape[0]
+    lum = np.minimum(image, cap)[height // 2 + 8 : -8, 8:-8].mean(axis=-1)
+    padded = np.pad(lum, 2, mode="edge")
+    rows, cols = lum.shape
+    box = sum(padded[i : i + rows, j : j + cols] for i in range(5) for j in range(5))
+    return (lum - box / 25.0).ravel()
 
 
 def ground_camera(renderer, distance=4.0, pitch=30.0, heading=0.0):
