@@ -224,10 +224,8 @@ def test_a_grains_side_shows_no_stair_steps(renderer, gl_clean):
     steps alone landed on either side of it from one row to the next, stripes along the view
     (rows change more sharply than columns: second over first differences). The step that
     passes below is halved before the crossing is taken."""
-    width, height = 2 * W, 2 * H
-    camera = camera_at_distance(
-        0.03, 15.0, width / height, lambda x, z: float(renderer.terrain.height(x, z))
-    )
+    width, height = 2 * W, 2 * H  # the same aspect as _camera's
+    camera = _camera(renderer, 0.03, 15.0)
     renderer.relief = True
     for hours in (16.5, 7.5):
         request = FrameRequest(camera, sky_at(hours), "close")
