@@ -13,9 +13,14 @@
 //            of normals)
 // so a footprint's w-weighted slope mean and covariance (LEAN mapping) and its plain mean slope
 // (the diffuse normal) come out of one trilinear fetch per texture.
+// Where a grain cell spans too few texels for its grains' shape (material.py's
+// supersampling), the grains come generated u_supersample times finer each way, and every
+// texel is the mean of its u_supersample² points: the moments of the slopes within it, as the
+// mipmaps are of the texels within theirs.
 
 uniform sampler2D u_normal_height;   // generator output: normal xyz, height
 uniform usampler2D u_layer_grain;    // generator output: layer + 1 (0 in gaps), grain word
+uniform int u_supersample;           // generator points per texel, each way
 uniform vec3 u_base_color;           // linear
 uniform vec3 u_layer_colors[LAYER_COLOURS];  // linear, layers × 4 palette entries (#defined)
 uniform uvec3 u_colour_thresholds;   // 16-bit colour pick bounds (noise.colour_thresholds)
@@ -32,12 +37,18 @@ layout(location = 2) out vec4 out_spread;
 layout(location = 3) out float out_hole;
 layout(location = 4) out vec4 out_normal;
 
+struct Built {
+    vec4 albedo;
+    vec4 glint;
+    vec4 spread;
+    float hole;
+    vec4 normal;
+};
 
-
-void main() {
-    ivec2 texel = ivec2(gl_FragCoord.xy);
-    vec4 normal_height = texelFetch(u_normal_height, texel, 0);
-    uvec2 layer_grain = texelFetch(u_layer_grain, texel, 0).xy;
+// What one point of the generator's grains adds to its texel.
+Built built_at(ivec2 point) {
+    vec4 normal_height = texelFetch(u_normal_height, point, 0);
+    uvec2 layer_grain = texelFetch(u_layer_grain, point, 0).xy;
     int layer = int(layer_grain.x) - 1;
     uint word = layer_grain.y;
 
@@ -57,9 +68,32 @@ void main() {
     }
     vec3 n = normal_height.xyz;
     vec2 b = n.xy / n.z;   // n.z ≥ about CAP_FLOOR (noise.py): never 0
-    out_albedo = vec4(albedo, clamp(relief, 0.0, 1.0));
-    out_glint = vec4(w, w * b, w * b.x * b.y);
-    out_spread = vec4(w * b * b, b);
-    out_hole = w * exp(-0.5 * dot(b, b) / HOLE_SCALE2);
-    out_normal = vec4(n.xy, n.xy * n.xy);
+    Built out_;
+    out_.albedo = vec4(albedo, clamp(relief, 0.0, 1.0));
+    out_.glint = vec4(w, w * b, w * b.x * b.y);
+    out_.spread = vec4(w * b * b, b);
+    out_.hole = w * exp(-0.5 * dot(b, b) / HOLE_SCALE2);
+    out_.normal = vec4(n.xy, n.xy * n.xy);
+    return out_;
+}
+
+void main() {
+    ivec2 first = ivec2(gl_FragCoord.xy) * u_supersample;
+    Built sum = Built(vec4(0.0), vec4(0.0), vec4(0.0), 0.0, vec4(0.0));
+    for (int j = 0; j < u_supersample; ++j) {
+        for (int i = 0; i < u_supersample; ++i) {
+            Built b = built_at(first + ivec2(i, j));
+            sum.albedo += b.albedo;
+            sum.glint += b.glint;
+            sum.spread += b.spread;
+            sum.hole += b.hole;
+            sum.normal += b.normal;
+        }
+    }
+    float share = 1.0 / float(u_supersample * u_supersample);
+    out_albedo = sum.albedo * share;
+    out_glint = sum.glint * share;
+    out_spread = sum.spread * share;
+    out_hole = sum.hole * share;
+    out_normal = sum.normal * share;
 }

@@ -75,6 +75,13 @@ FACETS_PER_LARGEST = facets_per_largest()
 LIGHT_ANGULAR_RADIUS = 0.00465
 # The mip level whose clear-grain slopes measure the facet lobe's correction (facet_lobe.py).
 LOBE_LEVEL = 2
+# The fewest texels a grain cell (two grains) spans in the points the material is built from.
+# The generator samples each grain's normal at texel centres: with cells of a texel or two, a
+# regular grid of grains (no jitter) reads one slope over and over, and the moments hold none of
+# the slopes between (a 256² tile of 256 cells of faceted grains read as one tilted plane, its
+# far light twice its close light under a low sun). Such tiles are built from grains generated
+# finer (supersampling), each texel the mean of its points, as each mip level is of the last.
+MIN_CELL_TEXELS = 4
 # The grains' mean shadowing table (relief_visibility.frag): light cosines, eye cosines and
 # azimuths between them, and the points of the tile each entry averages.
 RELIEF_TABLE = (9, 9, 7)
@@ -136,6 +143,15 @@ def detail_slopes(size: int, seed: int) -> np.ndarray:
     return (slopes / np.abs(slopes).max()).astype(np.float32)
 
 
+def supersampling(texture_size: int, period: int) -> int:
+    """Generator points per texel each way (a power of two) for grain cells to span at least
+    MIN_CELL_TEXELS points in a tile of ``texture_size`` texels and ``period`` cells."""
+    factor = 1
+    while texture_size * factor < MIN_CELL_TEXELS * period:
+        factor *= 2
+    return factor
+
+
 class SandMaterial:
     """GPU resources of a sand preset, for ``shaders/sand_surface.glsl``."""
 
@@ -153,6 +169,10 @@ class SandMaterial:
         size = self.texture_size
         # Made once and drawn over by every generation: a material owns a fixed set of objects.
         self._grains = GpuSandTextures.allocate(ctx, size)
+        # The grains generated finer, for a tile too coarse for its grains (supersampling):
+        # made while such grains are held, and their key (generation, factor).
+        self._fine: GpuSandTextures | None = None
+        self._fine_for = None
         self._built_for = None
         # Albedo is fine in half floats; the moments are not: the glint estimate subtracts
         # second moments and the hole from their means, which half floats round away.
@@ -229,6 +249,9 @@ class SandMaterial:
         even while their generation is not yet the preset's, so a view waiting for its next
         tile never makes grains itself. Without, new grains are made here when the preset's
         generation differs from the grains the material holds (``grains_generation``).
+        Where the tile is too coarse for the grains (``supersampling``), the material is built
+        from their generation's grains generated finer, made here (or copied with another
+        material's grains).
 
         With ``between_bands``, new grains are drawn in bands of ``GENERATION_BAND_ROWS`` rows
         and it is called after each: a thread making grains beside one that must keep drawing
@@ -249,22 +272,24 @@ class SandMaterial:
             self._grains.copy_from(grains._grains)
             self._built_for = None
             self.grains_generation = grains.grains_generation
+            if grains._fine is not None and grains._fine_for != self._fine_for:
+                self._release_fine()
+                self._fine = GpuSandTextures.allocate(self.ctx, grains._fine.size)
+                self._fine.copy_from(grains._fine)
+                self._fine_for = grains._fine_for
         elif grains is not None:
             self._upload(grains)
         elif self.grains_generation != preset.generation:
             constants = NoiseConstants.from_generation(preset.generation)
-            generator = gl_generator(self.ctx)
             self.preset = None  # until every band is drawn
             self.grains_generation = None
             self._built_for = None
-            size = self.texture_size
-            rows = size if between_bands is None and cancelled is None else GENERATION_BAND_ROWS
-            for _rows in generator.render_in_bands(constants, self._grains, rows):
-                if between_bands is not None:
-                    between_bands()
-                if cancelled is not None and cancelled():
-                    return False
+            if not self._draw_grains(constants, self._grains, between_bands, cancelled):
+                return False
             self.grains_generation = preset.generation
+        if not self._fine_grains(between_bands, cancelled):
+            self.preset = None
+            return False
         build_key = (self.grains_generation, *(preset.get(spec.path) for spec in _MOMENT_FIELDS))
         if self._built_for != build_key:
             # The relief's mean shadowing is the grains' alone: made again with new grains only.
@@ -273,6 +298,41 @@ class SandMaterial:
             self._built_for = build_key
         self.preset = preset
         return True
+
+    def _draw_grains(self, constants, target, between_bands, cancelled) -> bool:
+        """Generate grains into ``target``, in bands where paced; False where cancelled."""
+        rows = target.size if between_bands is None and cancelled is None else GENERATION_BAND_ROWS
+        for _rows in gl_generator(self.ctx).render_in_bands(constants, target, rows):
+            if between_bands is not None:
+                between_bands()
+            if cancelled is not None and cancelled():
+                return False
+        return True
+
+    def _fine_grains(self, between_bands, cancelled) -> bool:
+        """Hold the grains generated finer where the tile is too coarse for them (and none
+        where it is not); False where cancelled."""
+        generation = self.grains_generation
+        factor = supersampling(self.texture_size, generation.period)
+        key = (generation, factor)
+        if factor == 1 or self._fine_for != key:
+            self._release_fine()
+        if factor == 1 or self._fine_for == key:
+            return True
+        self._fine = GpuSandTextures.allocate(self.ctx, self.texture_size * factor)
+        self._built_for = None
+        constants = NoiseConstants.from_generation(generation)
+        if not self._draw_grains(constants, self._fine, between_bands, cancelled):
+            self._release_fine()
+            return False
+        self._fine_for = key
+        return True
+
+    def _release_fine(self) -> None:
+        if self._fine is not None:
+            self._fine.release()
+        self._fine = None
+        self._fine_for = None
 
     def _upload(self, textures: SandTextures) -> None:
         n = self.texture_size
@@ -295,10 +355,12 @@ class SandMaterial:
         # Coloured by the generation of the grains held, which may not yet be the preset's.
         nc = NoiseConstants.from_generation(self.grains_generation)
         program = self._build
-        self._grains.normal_height.use(location=0)
-        self._grains.layer_grain.use(location=1)
+        source = self._fine if self._fine is not None else self._grains
+        source.normal_height.use(location=0)
+        source.layer_grain.use(location=1)
         program["u_normal_height"].value = 0
         program["u_layer_grain"].value = 1
+        program["u_supersample"].value = source.size // self.texture_size
         program["u_base_color"].value = tuple(nc.base_color)
         colours = nc.layer_colors.reshape(MAX_LAYERS * 4, 3).astype(np.float32)
         program["u_layer_colors"].write(colours.tobytes())
@@ -349,10 +411,18 @@ class SandMaterial:
         (far_brdf.five_normals_correction), (azimuth, eye cosine, light cosine) at the relief
         table's directions (sand_relief.glsl's direction_table_at), into the texture the
         surface reads."""
-        size = self.texture_size
-        finest = np.frombuffer(read_without_gil(self.normal_moments), dtype=np.float32)
-        # Every other texel each way: a quarter of the count, each band's share within 0.0013.
-        tilts = grain_tilts(finest.reshape(size, size, 4)[::2, ::2, :2])
+        if self._fine is not None:
+            # The grains' own normals, not their means over a texel (a tilt's light is not
+            # linear in it): every point, since a cell spans only a few.
+            size = self._fine.size
+            finest = np.frombuffer(read_without_gil(self._fine.normal_height), dtype=np.float32)
+            tilts = grain_tilts(finest.reshape(size, size, 4)[..., :2])
+        else:
+            size = self.texture_size
+            finest = np.frombuffer(read_without_gil(self.normal_moments), dtype=np.float32)
+            # Every other texel each way: a quarter of the count, each band's share within
+            # 0.0013.
+            tilts = grain_tilts(finest.reshape(size, size, 4)[::2, ::2, :2])
         top = int(self.max_lod)
         tile = np.frombuffer(read_without_gil(self.normal_moments, level=top), dtype=np.float32)
         lights, eyes, azimuths = RELIEF_TABLE
@@ -448,6 +518,7 @@ class SandMaterial:
 
     def release(self) -> None:
         """Release every GL object the material made (safe to call twice)."""
+        self._release_fine()
         if self._grains is not None:
             self._grains.release()
             self._grains = None

@@ -185,6 +185,8 @@ def test_release_frees_every_gl_object_it_made(gl_ctx):
     material.update(Preset())
     made = [v for k, v in vars(material).items() if k != "ctx" and hasattr(v, "mglo")]
     made += [v for v in vars(material._grains).values() if hasattr(v, "mglo")]
+    # 36 cells on a 64² tile: its grains are generated finer too (supersampling).
+    made += [v for v in vars(material._fine).values() if hasattr(v, "mglo")]
     assert len(made) >= 10, made
     material.release()
     alive = [obj for obj in made if type(obj.mglo).__name__ != "InvalidObject"]
@@ -379,3 +381,93 @@ def test_paced_generation_draws_the_same_grains_in_bands(gl_ctx):
     finally:
         whole.release()
         paced.release()
+
+
+def test_supersampling_gives_every_grain_cell_enough_points():
+    from sand_editor.generator.sizes import MAX_SIZE, MIN_SIZE
+    from sand_editor.preset import FIELDS
+    from sand_editor.render.material import MIN_CELL_TEXELS, supersampling
+
+    assert supersampling(1024, 36) == 1
+    assert supersampling(256, 256) == 4
+    assert supersampling(64, 36) == 4
+    periods = next(spec for spec in FIELDS if spec.path == "generation.period")
+    size = MIN_SIZE
+    while size <= MAX_SIZE:
+        for period in range(int(periods.minimum), int(periods.maximum) + 1):
+            factor = supersampling(size, period)
+            assert size * factor >= MIN_CELL_TEXELS * period
+            # The least such power of two.
+            assert factor == 1 or size * factor // 2 < MIN_CELL_TEXELS * period
+        size *= 2
+
+
+_TEXTURES = ("albedo", "glint_moments", "spread_moments", "hole_moments", "normal_moments")
+
+
+def _level(texture, level: int) -> np.ndarray:
+    dtype = np.float16 if texture.dtype == "f2" else np.float32
+    size = texture.width >> level
+    return np.frombuffer(texture.read(level=level), dtype=dtype).reshape(size, size, -1)
+
+
+def test_a_tile_too_coarse_for_its_grains_is_built_as_a_finer_tile_mipmapped(gl_ctx):
+    # 256 cells on a 256² tile: each texel must hold the mean of the grains over it, as level
+    # 2 of the 1024² tile does, not one point of them.
+    # Faceted grains on a regular grid: every cell the same, its slopes a few discrete ones.
+    preset = Preset().replace(
+        **{
+            "generation.period": 256,
+            "generation.jitter": 0.0,
+            "generation.threshold": 0.0,
+            "generation.roundness": 0.01,
+        }
+    )
+    coarse, fine = SandMaterial(gl_ctx, 256), SandMaterial(gl_ctx, 1024)
+    try:
+        coarse.update(preset)
+        fine.update(preset)
+        # The grains are there, and their slopes spread within a texel.
+        w, _, _, _ = _level(fine.glint_moments, 2).transpose(2, 0, 1)
+        wb2 = _level(fine.spread_moments, 2)[..., 0]
+        wb = _level(fine.glint_moments, 2)[..., 1]
+        assert w.mean() > 0.5
+        assert (wb2 * w - wb * wb).mean() > 1e-3
+        for name in _TEXTURES:
+            for level in (0, 3):
+                ours = _level(getattr(coarse, name), level).astype(np.float64)
+                truth = _level(getattr(fine, name), level + 2).astype(np.float64)
+                scale = max(float(np.abs(truth).max()), 1e-6)
+                assert np.abs(ours - truth).max() <= 2e-3 * scale, (name, level)
+        # The diffuse light's correction is measured on those grains' own normals too.
+        tables = [
+            np.frombuffer(m.diffuse_correction_texture.read(), np.float32) for m in (coarse, fine)
+        ]
+        np.testing.assert_allclose(*tables, atol=0.01)
+    finally:
+        coarse.release()
+        fine.release()
+
+
+def test_finer_grains_are_held_only_while_needed_and_released(gl_clean):
+    from tests.gl_objects import live_gl_objects
+
+    material = SandMaterial(gl_clean, 256)
+    try:
+        material.update(Preset())
+        resolved = live_gl_objects(gl_clean)
+        assert material._fine is None
+        for _ in range(3):
+            material.update(Preset().replace(**{"generation.period": 200}))
+            assert material._fine is not None and material._fine.size == 1024
+            material.update(Preset())
+            assert material._fine is None
+            assert live_gl_objects(gl_clean) == resolved
+        # Another material's finer grains are copied with its grains, not drawn again.
+        material.update(Preset().replace(**{"generation.period": 200}))
+        twin = SandMaterial(gl_clean, 256)
+        twin.update(Preset().replace(**{"generation.period": 200}), grains=material)
+        assert twin._fine.normal_height.read() == material._fine.normal_height.read()
+        twin.release()
+    finally:
+        material.release()

@@ -76,7 +76,9 @@ def test_each_copy_turns_its_slopes_with_its_grains(gl_ctx, gl_clean):
     """A copy mirrored or turned must turn its grains' slopes with it: the bowl stays convex
     (its world slope grows along x and along z) in every copy, where slopes left in the tile's
     axes would fall across every mirrored one."""
-    preset = Preset().replace(**NO_DETAIL)
+    # 16 cells on the 64² tile: 4 texels each, so the material is built from the bowl itself
+    # (a coarser tile would be built from its generation's grains generated finer).
+    preset = Preset().replace(**NO_DETAIL, **{"generation.period": 16})
     material = SandMaterial(gl_ctx, 64)
     probe = MaterialProbe(material, 320, 180)
     probe.ripples = False
