@@ -17,6 +17,7 @@ colour, the second does not.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -148,16 +149,20 @@ def _quantile_points() -> tuple[np.ndarray, np.ndarray]:
     return points, 0.5 * w
 
 
+@functools.cache
 def ripple_quantile_fit() -> np.ndarray:
     """The shaders' ripple_quantiles: the profile's slopes at each third's Gauss–Legendre
     quantiles as quadratics c0 + c1 s + c2 s² in its asymmetry s over the shipped range
-    (RIPPLE_SHARPNESS to RIPPLE_STEEP_SHARPNESS); shape (3 coefficients, 3 thirds, points)."""
+    (RIPPLE_SHARPNESS to RIPPLE_STEEP_SHARPNESS); shape (3 coefficients, 3 thirds, points).
+    Fitted once (read-only)."""
     points, _ = _quantile_points()
     sharp = np.linspace(RIPPLE_SHARPNESS, RIPPLE_STEEP_SHARPNESS, 17)
     at = (np.arange(_SLOPE_STEPS) + 0.5) / _SLOPE_STEPS
     slopes = np.array([np.interp(points, at, _ripple_slopes_sorted(s)) for s in sharp])
     coefficients = np.polynomial.polynomial.polyfit(sharp, slopes.reshape(sharp.size, -1), 2)
-    return coefficients.reshape(3, 3, RIPPLE_QUANTILE_POINTS)
+    coefficients = coefficients.reshape(3, 3, RIPPLE_QUANTILE_POINTS)
+    coefficients.setflags(write=False)
+    return coefficients
 
 
 def ripple_tilt_slopes_fit(steepest, sharp) -> np.ndarray:
