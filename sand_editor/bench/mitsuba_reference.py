@@ -42,8 +42,13 @@ MITSUBA_USERS = "the Mitsuba reference of bench relief and appearance"
 
 
 def neutral(preset: Preset) -> Preset:
-    """The preset with the terms Mitsuba's BSDFs lack at their neutral values."""
-    return preset.replace(**{"shading.sss": 0.0, "shading.transmission": 0.0})
+    """The preset with the terms Mitsuba's scene lacks at their neutral values: subsurface and
+    transmission (its BSDFs), the wind's ripples and the detail normals on them (its plane is
+    the grains' normal map alone)."""
+    return preset.replace(**{
+        "shading.sss": 0.0, "shading.transmission": 0.0,
+        "shading.ripple_strength": 0.0, "shading.detail_strength": 0.0,
+    })  # fmt: skip
 
 
 def load_mitsuba():

@@ -303,11 +303,10 @@ def run(quick: bool = False) -> tuple[dict, dict]:
     probe.sky_irradiance = np.zeros(3)
     probe.sun_radiance = np.asarray(SUN_IRRADIANCE, dtype=np.float64)
     probe.glint_filter = "ours-mean"
-    no_ripples = {"shading.ripple_strength": 0.0, "shading.detail_strength": 0.0}
     rows, sheet = [], {}
     try:
         for name in QUICK_PRESETS if quick else PRESETS:
-            preset = reference.neutral(Preset.load(bundled_preset(name))).replace(**no_ripples)
+            preset = reference.neutral(Preset.load(bundled_preset(name)))
             textures = generate(preset, TEXTURE_SIZE)
             tile = 1.0 / preset.shading.uv_scale
             views = {}

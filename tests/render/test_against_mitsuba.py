@@ -34,7 +34,9 @@ def test_rough_facets_on_tilted_grains_hold_mitsubas_light(rows):
 
 def test_the_diffuse_light_and_the_total_are_mitsubas(rows):
     row = rows[0]
-    assert row["diffuse_ratio"] == pytest.approx(1.0, abs=0.1), row
+    # Measured 1.01 at 64 samples per pixel. With the probe's ripples left on (Mitsuba's plane
+    # has none) the unresolved ripples' tilts took 3 % of it: 0.977.
+    assert row["diffuse_ratio"] == pytest.approx(1.0, abs=0.02), row
     # Close and far agree with each other more tightly than either with Mitsuba.
     assert row["close_ratio"] == pytest.approx(row["far_ratio"], rel=0.03), row
 
@@ -53,3 +55,13 @@ def test_a_preset_with_no_clear_grains_has_no_specular_light_in_either():
     row = compare([preset], (3.0,), size=(16, 9), spp=4, texture_size=64)[0]
     assert row["ours"]["specular"] == 0.0 and row["mitsuba"]["specular"] == 0.0
     assert row["mitsuba"]["diffuse"] > 0.01
+
+
+def test_the_comparison_leaves_out_what_mitsubas_scene_lacks():
+    from sand_editor.bench.mitsuba_reference import neutral
+
+    shipped = Preset.load(bundled_preset("paper-default"))
+    assert shipped.shading.ripple_strength > 0.0 and shipped.shading.detail_strength > 0.0
+    shading = neutral(shipped).shading
+    assert (shading.sss, shading.transmission) == (0.0, 0.0)
+    assert (shading.ripple_strength, shading.detail_strength) == (0.0, 0.0)
