@@ -389,6 +389,11 @@ vec3 filtered_diffuse_light(vec3 kd, vec4 normals, float lod, SurfacePoint s, ve
          + grain_transmission(kd, L.moon_direction, v, L.moon_radiance);
 }
 
+// The frame the tone curve's spread is that of: this many times finer each way than the frame
+// drawn, each of its pixels through the curve and averaged (the supersampled frame FLIP is
+// measured against).
+const float SPREAD_PARTS = 8.0;
+
 struct Shaded {
     vec3 radiance;
     // The variance of the luminance across the footprint over its squared mean: what the tone
@@ -557,8 +562,19 @@ Shaded shade_close(SurfacePoint s, SurfacePoint plain, Lighting L, vec3 v, bool 
     float undrawn = (1.0 - relief) * spread.y;
     float lit_share = max(mean_reaching.x, 1e-3);
     float shadowing = undrawn * undrawn * (1.0 - lit_share) / lit_share;
+    // The grains' share of that spread is their light's across the pixel's parts (a frame drawn
+    // SPREAD_PARTS times finer, whose pixels the tone curve takes one by one): where each part
+    // holds many grains it is their mean's, the grains' own over their count (independent
+    // grains), and none of it far below the pixel, as the far range takes none. The ripples'
+    // (spread.z) is kept whole. Taken whole at any size, a sand of grains far below the pixel
+    // displayed its close frame 10 % darker than its far frame at 10 and 30 m (a one-cell tile
+    // of 354 per metre, all of its light wrapped around the grains, under a low sun).
+    float pixel_cells = abs(determinant(mat2(f.dx, f.dy))) / (u_grain_cell * u_grain_cell);
+    float part_cells = pixel_cells / (SPREAD_PARTS * SPREAD_PARTS);
+    float grains = max(spread.x - spread.z, 0.0) + shadowing;
     float mean = dot(c.radiance, LUMINANCE_WEIGHTS);
-    c.spread = mean > 1e-8 ? (spread.x + shadowing) / (mean * mean) : 0.0;
+    float variance = spread.z + grains / (1.0 + part_cells);
+    c.spread = mean > 1e-8 ? variance / (mean * mean) : 0.0;
     return c;
 }
 

@@ -351,3 +351,32 @@ def test_grains_finer_than_the_tile_hold_close_and_far_light_alike(sweep):
         # 0.54 of the far range's and drawn 3.3 times it; at noon 1.10 and 1.18.
         assert abs(row["close_over_far"] - 1.0) <= AGREEMENT, row
         assert abs(row["drawn_over_far"] - 1.0) <= AGREEMENT, row
+
+
+# A random valid sand (seed 1014's sixth) of grains far below the pixel from 10 m on: a one-cell
+# tile at 354 per metre, no clear grains, all of its light wrapped around the grains.
+FINE_WRAPPED = {
+    "format": "sand-editor-preset",
+    "schema_version": 3,
+    "name": "fine-wrapped",
+    "generation": {
+        "layers": 5, "threshold": 0.0, "roundness": 1.0, "seed": 0,
+        "base_color": "#affff3", "colors": ["#f59ff0", "#16d398", "#181ac6", "#ce78da"],
+        "weights": [52, 38, 12, 52], "layer_darkness": 0.859, "jitter": 0.606, "period": 1,
+    },
+    "shading": {
+        "facet_roughness": 1.0, "facet_size": 1000.0, "clear_grains": 0.0, "grain_ior": 1.3,
+        "sss": 10.0, "scattering": 1.0, "absorption": 0.0, "transmission": 1.0,
+        "transmission_roughness": 0.0, "ripple_strength": 0.47, "wind_direction": 360.0,
+        "detail_strength": 0.0, "sigmoid_a": 100.0, "sigmoid_b": -100.0, "uv_scale": 353.6,
+    },
+}  # fmt: skip
+
+
+def test_grains_far_below_the_pixel_display_as_the_far_range_does(sweep):
+    rows = sweep.measure(Preset.from_dict(FINE_WRAPPED), (10.0, 30.0), ("low",))
+    for row in rows:
+        assert row["glint_share"] == 0.0 and row["close_over_far"] == pytest.approx(1.0, abs=0.01)
+        # With their shadows' and normals' spread taken whole at any size, the close frame
+        # displayed 0.90 of the far one (the curve's shoulder).
+        assert row["frame_close"] == pytest.approx(row["frame_far"], rel=0.03), row
