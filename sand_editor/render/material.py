@@ -315,9 +315,10 @@ class SandMaterial:
         generation = self.grains_generation
         factor = supersampling(self.texture_size, generation.period)
         key = (generation, factor)
-        if factor == 1 or self._fine_for != key:
-            self._release_fine()
-        if factor == 1 or self._fine_for == key:
+        if self._fine_for == key:
+            return True
+        self._release_fine()
+        if factor == 1:
             return True
         self._fine = GpuSandTextures.allocate(self.ctx, self.texture_size * factor)
         self._built_for = None
