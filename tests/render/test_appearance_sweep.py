@@ -27,7 +27,7 @@ from sand_editor.bench.sweep import (
     random_preset,
     sweep_presets,
 )
-from sand_editor.preset import FIELDS, Preset
+from sand_editor.preset import FIELDS, FORMAT, SCHEMA_VERSION, Preset
 from sand_editor.resources import bundled_preset
 
 RANDOM_PRESETS = int(os.environ.get("SAND_EDITOR_SWEEP_PRESETS", "6"))
@@ -264,29 +264,33 @@ def test_black_sand_is_black_and_glints(sweep):
     assert (luminance > 10 * np.median(luminance)).mean() > 0.001
 
 
+def _sand(name: str, generation: dict, shading: dict) -> Preset:
+    """A sand as its preset file holds it (read as a file is, so every field is checked)."""
+    return Preset.from_dict({"format": FORMAT, "schema_version": SCHEMA_VERSION, "name": name,
+                             "generation": generation, "shading": shading})  # fmt: skip
+
+
 # A random valid sand whose tile is one lopsided grain (period 1): the copies the tile is laid
 # in turn it eight ways, and the far range must shade that mixture, not the tile as it lies.
-ONE_GRAIN = {
-    "format": "sand-editor-preset",
-    "schema_version": 3,
-    "name": "one-lopsided-grain",
-    "generation": {
+ONE_GRAIN = _sand(
+    "one-lopsided-grain",
+    generation={
         "layers": 2, "threshold": 0.0, "roundness": 0.0, "seed": 4294967295,
         "base_color": "#59d823", "colors": ["#48b306", "#89b23c", "#2f77b3", "#a48e63"],
         "weights": [63, 96, 96, 0], "layer_darkness": 0.734, "jitter": 0.683, "period": 1,
     },
-    "shading": {
+    shading={
         "facet_roughness": 0.01, "facet_size": 1000.0, "clear_grains": 0.484,
         "grain_ior": 1.97, "sss": 10.0, "scattering": 0.53, "absorption": 5.2,
         "transmission": 1.0, "transmission_roughness": 0.0, "ripple_strength": 1.0,
         "wind_direction": 0.0, "detail_strength": 0.0, "sigmoid_a": 100.0, "sigmoid_b": -100.0,
         "uv_scale": 10000.0,
     },
-}  # fmt: skip
+)  # fmt: skip
 
 
 def test_a_one_grain_tile_laid_in_turned_copies_is_the_same_light_far_away(sweep):
-    rows = sweep.measure(Preset.from_dict(ONE_GRAIN), (0.3, 10.0), ("low",))
+    rows = sweep.measure(ONE_GRAIN, (0.3, 10.0), ("low",))
     for row in rows:
         # As the tile lies (unsymmetrized) its far light was 0.856 and 0.895 of the close's.
         assert abs(row["close_over_far"] - 1.0) <= 0.05, row
@@ -295,26 +299,24 @@ def test_a_one_grain_tile_laid_in_turned_copies_is_the_same_light_far_away(sweep
 # A random valid sand of the strongest ripples (slopes to 8) and no glint: under a low sun a far
 # pixel holds a few ripples' sides turned to the light and from it, whose spread the display
 # curve takes as the close range's.
-STRONG_RIPPLES = {
-    "format": "sand-editor-preset",
-    "schema_version": 3,
-    "name": "strong-ripples",
-    "generation": {
+STRONG_RIPPLES = _sand(
+    "strong-ripples",
+    generation={
         "layers": 0, "threshold": 0.0, "roundness": 1.0, "seed": 4294967295,
         "base_color": "#6a7940", "colors": ["#141ca1", "#55d489", "#971a83", "#ec12bb"],
         "weights": [95, 23, 95, 31], "layer_darkness": 0.0, "jitter": 0.0, "period": 144,
     },
-    "shading": {
+    shading={
         "facet_roughness": 0.427, "facet_size": 20.0, "clear_grains": 1.0, "grain_ior": 1.3,
         "sss": 10.0, "scattering": 0.0, "absorption": 0.0, "transmission": 0.0,
         "transmission_roughness": 0.904, "ripple_strength": 1.0, "wind_direction": 360.0,
         "detail_strength": 0.0, "sigmoid_a": 0.0816, "sigmoid_b": -100.0, "uv_scale": 0.315,
     },
-}  # fmt: skip
+)  # fmt: skip
 
 
 def test_strong_ripples_display_alike_close_and_far(sweep):
-    (row,) = sweep.measure(Preset.from_dict(STRONG_RIPPLES), (10.0,), ("low",))
+    (row,) = sweep.measure(STRONG_RIPPLES, (10.0,), ("low",))
     assert row["glint_share"] <= GLINTS_CARRY_LITTLE, row
     # 0.5 % apart. With the far range's light taken as even across its pixels, the close frame
     # displayed 12 % lighter than the far one; at two tilts either side of the mean slope, with
@@ -326,26 +328,24 @@ def test_strong_ripples_display_alike_close_and_far(sweep):
 # jitter, period 256) with mirror-like facets: on the sweep's 256² tile a cell spans one texel,
 # whose grains' normals read as one slope everywhere unless the tile is built from finer points
 # (material.py's supersampling).
-REGULAR_FACETS = {
-    "format": "sand-editor-preset",
-    "schema_version": 3,
-    "name": "regular-facets",
-    "generation": {
+REGULAR_FACETS = _sand(
+    "regular-facets",
+    generation={
         "layers": 7, "threshold": 0.0, "roundness": 0.0089, "seed": 725268993,
         "base_color": "#b03f45", "colors": ["#c4574b", "#ba9f73", "#26515b", "#eacc51"],
         "weights": [36, 21, 36, 4], "layer_darkness": 0.391, "jitter": 0.0, "period": 256,
     },
-    "shading": {
+    shading={
         "facet_roughness": 0.01, "facet_size": 20.0, "clear_grains": 0.977, "grain_ior": 1.806,
         "sss": 0.0, "scattering": 0.0, "absorption": 1.25, "transmission": 0.0,
         "transmission_roughness": 0.0, "ripple_strength": 0.218, "wind_direction": 73.1,
         "detail_strength": 1.0, "sigmoid_a": 37.3, "sigmoid_b": 1000.0, "uv_scale": 0.553,
     },
-}  # fmt: skip
+)  # fmt: skip
 
 
 def test_grains_finer_than_the_tile_hold_close_and_far_light_alike(sweep):
-    rows = sweep.measure(Preset.from_dict(REGULAR_FACETS), (1.0, 10.0))
+    rows = sweep.measure(REGULAR_FACETS, (1.0, 10.0))
     for row in rows:
         # Built from one point a texel, at 1 m under the low sun the close range's light was
         # 0.54 of the far range's and drawn 3.3 times it; at noon 1.10 and 1.18.
@@ -355,26 +355,24 @@ def test_grains_finer_than_the_tile_hold_close_and_far_light_alike(sweep):
 
 # A random valid sand (seed 1014's sixth) of grains far below the pixel from 10 m on: a one-cell
 # tile at 354 per metre, no clear grains, all of its light wrapped around the grains.
-FINE_WRAPPED = {
-    "format": "sand-editor-preset",
-    "schema_version": 3,
-    "name": "fine-wrapped",
-    "generation": {
+FINE_WRAPPED = _sand(
+    "fine-wrapped",
+    generation={
         "layers": 5, "threshold": 0.0, "roundness": 1.0, "seed": 0,
         "base_color": "#affff3", "colors": ["#f59ff0", "#16d398", "#181ac6", "#ce78da"],
         "weights": [52, 38, 12, 52], "layer_darkness": 0.859, "jitter": 0.606, "period": 1,
     },
-    "shading": {
+    shading={
         "facet_roughness": 1.0, "facet_size": 1000.0, "clear_grains": 0.0, "grain_ior": 1.3,
         "sss": 10.0, "scattering": 1.0, "absorption": 0.0, "transmission": 1.0,
         "transmission_roughness": 0.0, "ripple_strength": 0.47, "wind_direction": 360.0,
         "detail_strength": 0.0, "sigmoid_a": 100.0, "sigmoid_b": -100.0, "uv_scale": 353.6,
     },
-}  # fmt: skip
+)  # fmt: skip
 
 
 def test_grains_far_below_the_pixel_display_as_the_far_range_does(sweep):
-    rows = sweep.measure(Preset.from_dict(FINE_WRAPPED), (10.0, 30.0), ("low",))
+    rows = sweep.measure(FINE_WRAPPED, (10.0, 30.0), ("low",))
     for row in rows:
         assert row["glint_share"] == 0.0 and row["close_over_far"] == pytest.approx(1.0, abs=0.01)
         # With their shadows' and normals' spread taken whole at any size, the close frame
